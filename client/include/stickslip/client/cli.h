@@ -1,0 +1,17 @@
+#pragma once
+// The `stickslip` command line. Subcommands register themselves on a CLI11 app; main() only
+// calls run(). Exit codes: 0 success, 1 failure, 2 bad input (message on stderr).
+#include <CLI/CLI.hpp>
+
+namespace stickslip::client {
+
+enum ExitCode : int { kOk = 0, kFailure = 1, kBadInput = 2, kUnreachable = 3, kStudyFailed = 4 };
+
+/// Parses argv and runs the chosen subcommand; returns the process exit code.
+int run(int argc, char** argv);
+
+/// Subcommand registration (one function per command family).
+void add_simulate_command(CLI::App& app, int& exit_code);
+void add_table_command(CLI::App& app, int& exit_code);
+
+}  // namespace stickslip::client

@@ -1,0 +1,32 @@
+#include "stickslip/client/cli.h"
+
+#include <iostream>
+
+namespace stickslip::client {
+
+int run(int argc, char** argv) {
+  CLI::App app{"stickslip: stick-slip friction under longitudinal vibration (seed: Rybkiewicz & "
+               "Leus). SI units throughout."};
+  app.require_subcommand(1);
+  int exit_code = kOk;
+  add_simulate_command(app, exit_code);
+  add_table_command(app, exit_code);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::CallForHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForAllHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForVersion& e) {
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    app.exit(e);
+    return kBadInput;
+  } catch (const std::exception& e) {
+    std::cerr << "stickslip: " << e.what() << "\n";
+    return kFailure;
+  }
+  return exit_code;
+}
+
+}  // namespace stickslip::client

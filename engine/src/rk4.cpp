@@ -1,0 +1,194 @@
+// Fixed-step classic RK4 (the seed's ode4), plain and with located stick/slip switches.
+#include <cmath>
+
+#include "integrators.h"
+#include "system.h"
+
+namespace stickslip::detail {
+namespace {
+
+inline State axpy(const State& y, double h, const State& d) noexcept {
+  return {y.x + h * d.x, y.v + h * d.v, y.s + h * d.s};
+}
+
+/// Number of uniform steps covering [t0, t1] with steps no longer than dt.
+inline long steps_for(double span, double dt) {
+  return std::max(1L, static_cast<long>(std::ceil(span / dt * (1.0 - 1e-12))));
+}
+
+// ---- plain RK4: the right-hand side is evaluated as it stands, switches are not located -----
+
+template <class Model>
+void rk4_plain(RunContext& ctx, const Model& model, State& y) {
+  drive_stages(ctx, y, [&](const Plant& p, double t0, double t1, StageAccumulator& acc) {
+    const long n = steps_for(t1 - t0, ctx.cfg.integrator.dt);
+    const double h = (t1 - t0) / static_cast<double>(n);
+    // Base velocity by a rotation recurrence (one sin/cos pair per step instead of three
+    // cosines), re-synchronised with the exact phase every 1024 steps to stop drift.
+    const double ch = std::cos(0.5 * p.w * h), sh = std::sin(0.5 * p.w * h);
+    double c = 1.0, sn = 0.0;
+    for (long k = 0; k < n; ++k) {
+      const double t = t0 + static_cast<double>(k) * h;
+      if ((k & 1023) == 0) {
+        c = std::cos(p.w * (t - t0));
+        sn = std::sin(p.w * (t - t0));
+      }
+      const double c_half = c * ch - sn * sh, s_half = sn * ch + c * sh;
+      const double c_full = c_half * ch - s_half * sh, s_full = s_half * ch + c_half * sh;
+      const Deriv k1 = rhs(model, p, t, y, p.v_a * c);
+      acc.sample(t, k1.F_d, k1.F_f);
+      if (ctx.trace.active()) ctx.trace.add({t, k1.F_d, k1.F_f, y.x, y.v, y.s});
+      const Deriv k2 = rhs(model, p, t + 0.5 * h, axpy(y, 0.5 * h, k1.d), p.v_a * c_half);
+      const Deriv k3 = rhs(model, p, t + 0.5 * h, axpy(y, 0.5 * h, k2.d), p.v_a * c_half);
+      const Deriv k4 = rhs(model, p, t + h, axpy(y, h, k3.d), p.v_a * c_full);
+      const double h6 = h / 6.0;
+      y.x += h6 * (k1.d.x + 2.0 * (k2.d.x + k3.d.x) + k4.d.x);
+      y.v += h6 * (k1.d.v + 2.0 * (k2.d.v + k3.d.v) + k4.d.v);
+      y.s += h6 * (k1.d.s + 2.0 * (k2.d.s + k3.d.s) + k4.d.s);
+      c = c_full;
+      sn = s_full;
+      if (!ctx.guard.ok(y)) {
+        fail_diverged(ctx, t + h, y, p.v_a * c, h);
+        return false;
+      }
+    }
+    ctx.result.steps += static_cast<std::size_t>(n);
+    const Deriv end = rhs(model, p, t1, y, p.base_velocity(t1));
+    acc.sample(t1, end.F_d, end.F_f);
+    if (ctx.trace.active()) ctx.trace.add({t1, end.F_d, end.F_f, y.x, y.v, y.s});
+    return true;
+  });
+}
+
+// ---- RK4 with located switches for the hybrid (Karnopp, Reset Integrator) forms -------------
+
+template <class H>
+struct Frozen {
+  const H& hyb;
+  typename H::Mode mode;
+  Deriv operator()(const Plant& p, double t, const State& y) const noexcept {
+    const Point pt = p.point(t, y.x, y.v);
+    const FrictionEval fe = hyb.eval(mode, pt, y.s);
+    return {{y.v, (pt.F_d - fe.F_f) * p.m_inv, fe.ds}, pt.F_d, fe.F_f};
+  }
+  double event(const Plant& p, double t, const State& y, typename H::Mode* next) const noexcept {
+    return hyb.event(mode, p.point(t, y.x, y.v), y.s, next);
+  }
+};
+
+template <class F>
+State rk4_step(const F& f, const Plant& p, double t, const State& y, double h,
+               const Deriv* k1_in = nullptr) noexcept {
+  const Deriv k1 = k1_in ? *k1_in : f(p, t, y);
+  const Deriv k2 = f(p, t + 0.5 * h, axpy(y, 0.5 * h, k1.d));
+  const Deriv k3 = f(p, t + 0.5 * h, axpy(y, 0.5 * h, k2.d));
+  const Deriv k4 = f(p, t + h, axpy(y, h, k3.d));
+  const double h6 = h / 6.0;
+  return {y.x + h6 * (k1.d.x + 2.0 * (k2.d.x + k3.d.x) + k4.d.x),
+          y.v + h6 * (k1.d.v + 2.0 * (k2.d.v + k3.d.v) + k4.d.v),
+          y.s + h6 * (k1.d.s + 2.0 * (k2.d.s + k3.d.s) + k4.d.s)};
+}
+
+template <class H>
+void rk4_event(RunContext& ctx, const H& hyb, State& y) {
+  drive_stages(ctx, y, [&](const Plant& p, double t0, double t1, StageAccumulator& acc) {
+    const long n = steps_for(t1 - t0, ctx.cfg.integrator.dt);
+    const double h = (t1 - t0) / static_cast<double>(n);
+    auto point = [&](double t, const State& z) { return p.point(t, z.x, z.v); };
+    typename H::Mode mode = hyb.classify(point(t0, y), y.s);
+    hyb.on_enter(mode, point(t0, y), y);
+    for (long k = 0; k < n; ++k) {
+      double t = t0 + static_cast<double>(k) * h;
+      const double t_next = t0 + static_cast<double>(k + 1) * h;
+      {
+        const Deriv d0 = Frozen<H>{hyb, mode}(p, t, y);
+        acc.sample(t, d0.F_d, d0.F_f);
+        if (ctx.trace.active()) ctx.trace.add({t, d0.F_d, d0.F_f, y.x, y.v, y.s});
+      }
+      // Sub-steps end at located switches; at most a few per grid step.
+      for (int sub = 0; t < t_next && sub < 16; ++sub) {
+        const Frozen<H> f{hyb, mode};
+        const double hh = t_next - t;
+        const State y1 = rk4_step(f, p, t, y, hh);
+        typename H::Mode next{};
+        if (f.event(p, t + hh, y1, &next) > 0.0 || sub == 15) {
+          y = y1;
+          t = t_next;
+          break;
+        }
+        // Locate the switch by the Illinois variant of regula falsi on the step length.
+        typename H::Mode dummy{};
+        double a = 0.0, fa = std::fmax(f.event(p, t, y, &dummy), 0.0);
+        double b = hh, fb = f.event(p, t + hh, y1, &dummy);
+        State yb = y1;
+        int side = 0;
+        const double tol = std::fmax(1e-15, 1e-10 * hh);
+        for (int it = 0; it < 80 && b - a > tol; ++it) {
+          double th = (fa - fb) != 0.0 ? b - fb * (b - a) / (fb - fa) : 0.5 * (a + b);
+          if (!(th > a && th < b)) th = 0.5 * (a + b);
+          const State yt = rk4_step(f, p, t, y, th);
+          const double ft = f.event(p, t + th, yt, &dummy);
+          if (ft <= 0.0) {
+            b = th; fb = ft; yb = yt;
+            if (side == -1) fa *= 0.5;
+            side = -1;
+          } else {
+            a = th; fa = ft;
+            if (side == +1) fb *= 0.5;
+            side = +1;
+          }
+        }
+        f.event(p, t + b, yb, &next);
+        y = yb;
+        t += b;
+        {  // the old mode's forces at the switch, so that averages see the jump in F_f
+          const Deriv d = f(p, t, y);
+          acc.sample(t, d.F_d, d.F_f);
+        }
+        mode = hyb.settle(mode, next, point(t, y));
+        hyb.on_enter(mode, point(t, y), y);
+        {
+          const Deriv d = Frozen<H>{hyb, mode}(p, t, y);
+          acc.sample(t, d.F_d, d.F_f);
+        }
+        ++ctx.result.switches;
+      }
+      t = t_next;
+      if (!ctx.guard.ok(y)) {
+        fail_diverged(ctx, t, y, p.base_velocity(t), h);
+        return false;
+      }
+    }
+    ctx.result.steps += static_cast<std::size_t>(n);
+    const Deriv end = Frozen<H>{hyb, mode}(p, t1, y);
+    acc.sample(t1, end.F_d, end.F_f);
+    if (ctx.trace.active()) ctx.trace.add({t1, end.F_d, end.F_f, y.x, y.v, y.s});
+    return true;
+  });
+}
+
+}  // namespace
+
+void run_rk4(RunContext& ctx) {
+  State y{};
+  const FrictionParams& fp = ctx.cfg.friction;
+  switch (ctx.cfg.model) {
+    case ModelKind::kDahl: rk4_plain(ctx, Dahl(fp), y); break;
+    case ModelKind::kKarnopp: rk4_plain(ctx, Karnopp(fp), y); break;
+    case ModelKind::kResetIntegrator: rk4_plain(ctx, ResetIntegrator(fp), y); break;
+    case ModelKind::kLuGre: rk4_plain(ctx, LuGre(fp), y); break;
+  }
+}
+
+void run_rk4_event(RunContext& ctx) {
+  State y{};
+  const FrictionParams& fp = ctx.cfg.friction;
+  switch (ctx.cfg.model) {
+    case ModelKind::kDahl: rk4_plain(ctx, Dahl(fp), y); break;
+    case ModelKind::kKarnopp: rk4_event(ctx, KarnoppHybrid{Karnopp(fp), ctx.cfg.drive.m}, y); break;
+    case ModelKind::kResetIntegrator: rk4_event(ctx, ResetHybrid{ResetIntegrator(fp)}, y); break;
+    case ModelKind::kLuGre: rk4_plain(ctx, LuGre(fp), y); break;
+  }
+}
+
+}  // namespace stickslip::detail

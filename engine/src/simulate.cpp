@@ -1,0 +1,138 @@
+#include "stickslip/engine/simulate.h"
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <stdexcept>
+
+#include "integrators.h"
+#include "system.h"
+
+namespace stickslip {
+
+const char* to_string(RunStatus s) noexcept {
+  switch (s) {
+    case RunStatus::kOk: return "ok";
+    case RunStatus::kDiverged: return "diverged";
+    case RunStatus::kInvalid: return "invalid";
+  }
+  return "?";
+}
+
+namespace detail {
+
+std::string divergence_reason(const SimConfig& cfg, double t, const State& y, double ub,
+                              double h) {
+  char buf[512];
+  const double v_r = y.v - ub;
+  if (cfg.model == ModelKind::kLuGre || cfg.model == ModelKind::kDahl) {
+    const double lam = cfg.friction.k_t * std::fabs(v_r) / cfg.friction.F_C;
+    std::snprintf(buf, sizeof buf,
+                  "state left the physical range at t = %.9g s (x' = %.3g m/s, s = %.3g m); "
+                  "step %.3g s times the bristle rate k_t|v_r|/F_C = %.3g 1/s is %.3g, and "
+                  "explicit RK4 is unstable above about 2.8: reduce dt or use the adaptive "
+                  "integrator",
+                  t, y.v, y.s, h, lam, h * lam);
+  } else {
+    std::snprintf(buf, sizeof buf,
+                  "state left the physical range at t = %.9g s (x' = %.3g m/s, s = %.3g m) "
+                  "with step %.3g s: reduce dt",
+                  t, y.v, y.s, h);
+  }
+  return buf;
+}
+
+void fail_diverged(RunContext& ctx, double t, const State& y, double ub, double h) {
+  ctx.result.status = RunStatus::kDiverged;
+  ctx.result.t_end = t;
+  ctx.result.reason = divergence_reason(ctx.cfg, t, y, ub, h);
+}
+
+}  // namespace detail
+
+SimResult simulate(const SimConfig& cfg) {
+  SimResult r;
+  std::vector<std::string> errors;
+  if (!cfg.IsValid(&errors)) {
+    r.status = RunStatus::kInvalid;
+    for (const auto& e : errors) r.reason += (r.reason.empty() ? "" : "; ") + e;
+    return r;
+  }
+  // Far beyond anything physical: drive, vibration and slip velocities are mm/s to cm/s, and
+  // the strain never exceeds a few times F_S / k_t.
+  double v_a_max = 0.0;
+  for (const auto& s : cfg.stages) v_a_max = std::max(v_a_max, s.v_a);
+  const double v_slip = std::max(cfg.friction.F_S, cfg.friction.F_C) /
+                        std::sqrt(cfg.drive.k_d * cfg.drive.m);
+  const double s_scale = cfg.model == ModelKind::kResetIntegrator
+                             ? cfg.friction.s0
+                             : std::max(cfg.friction.F_S, cfg.friction.F_C) / cfg.friction.k_t;
+  detail::RunContext ctx{cfg, r, detail::TraceRecorder(cfg.trace.rate, &r.trace),
+                         detail::DivergenceGuard{1e3 * (cfg.drive.v_d + v_a_max + v_slip),
+                                                 1e3 * s_scale}};
+  if (cfg.trace.rate > 0)
+    r.trace.reserve(static_cast<std::size_t>(cfg.total_duration() * cfg.trace.rate) + 2);
+  try {
+    switch (cfg.integrator.kind) {
+      case IntegratorKind::kRk4: detail::run_rk4(ctx); break;
+      case IntegratorKind::kRk4Event: detail::run_rk4_event(ctx); break;
+      case IntegratorKind::kAdaptive: detail::run_adaptive(ctx); break;
+    }
+  } catch (const InvalidParameter& e) {  // a model constructor rejected a value
+    r = SimResult{};
+    r.status = RunStatus::kInvalid;
+    r.reason = e.what();
+  }
+  return r;
+}
+
+namespace {
+nlohmann::json finite_or_null(double v) {
+  return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr);
+}
+}  // namespace
+
+std::string summary_json(const SimConfig& cfg, const SimResult& r, int indent) {
+  nlohmann::json j;
+  j["model"] = to_string(cfg.model);
+  j["integrator"] = to_string(cfg.integrator.kind);
+  j["status"] = to_string(r.status);
+  if (!r.reason.empty()) j["reason"] = r.reason;
+  j["t_end"] = finite_or_null(r.t_end);
+  j["steps"] = r.steps;
+  j["rejected_steps"] = r.rejected;
+  j["switches"] = r.switches;
+  auto& stages = j["stages"] = nlohmann::json::array();
+  for (std::size_t i = 0; i < r.stages.size(); ++i) {
+    const auto& m = r.stages[i];
+    const Stage& st = cfg.stages[i];
+    stages.push_back({{"stage", i + 1},
+                      {"t_start", finite_or_null(m.t_start)},
+                      {"t_end", finite_or_null(m.t_end)},
+                      {"v_a", finite_or_null(st.v_a)},
+                      {"f", finite_or_null(st.f)},
+                      {"amplitude", finite_or_null(m.amplitude)},
+                      {"amplitude_raw", finite_or_null(m.amplitude_raw)},
+                      {"mean_force", finite_or_null(m.mean_force)},
+                      {"mean_friction", finite_or_null(m.mean_friction)},
+                      {"slip_events", m.slip_events},
+                      {"mean_period", finite_or_null(m.mean_period)}});
+  }
+  return j.dump(indent);
+}
+
+void write_trace_csv(const std::vector<TraceSample>& trace, const std::string& path) {
+  std::ofstream out(path);
+  if (!out) throw std::runtime_error("cannot open trace file '" + path + "' for writing");
+  out << "t,F_d,F_f,x,v,s\n";
+  char line[256];
+  for (const auto& s : trace) {
+    std::snprintf(line, sizeof line, "%.9g,%.9g,%.9g,%.12g,%.9g,%.9g\n", s.t, s.F_d, s.F_f, s.x,
+                  s.v, s.s);
+    out << line;
+  }
+  if (!out) throw std::runtime_error("failed writing trace file '" + path + "'");
+}
+
+}  // namespace stickslip

@@ -1,0 +1,298 @@
+#pragma once
+// Internal: the seed's system as a plain right-hand side, plus the "frozen-mode" forms of the
+// switching models that the event-locating integrators need. Not part of the public API.
+
+#include <cmath>
+#include <string>
+
+#include "stickslip/engine/metrics.h"
+#include "stickslip/engine/models.h"
+#include "stickslip/engine/simulate.h"
+
+namespace stickslip::detail {
+
+struct State {
+  double x = 0.0;  ///< body position [m]
+  double v = 0.0;  ///< body velocity [m/s]
+  double s = 0.0;  ///< bristle strain [m] (unused by Karnopp)
+};
+
+/// Everything the friction model sees at one instant besides the state.
+struct Point {
+  double F_d;        ///< drive force [N]
+  double v_r;        ///< relative velocity [m/s]
+  double a_b = 0.0;  ///< base acceleration u'' [m/s^2]
+};
+
+/// Body, drive and the current stage's base motion. u'(t) = v_a cos(w (t - t0)).
+struct Plant {
+  double m_inv, k_d, v_d;
+  double v_a = 0.0, w = 0.0, t0 = 0.0;
+  double base_velocity(double t) const noexcept {
+    return v_a == 0.0 ? 0.0 : v_a * std::cos(w * (t - t0));
+  }
+  double base_accel(double t) const noexcept {
+    return v_a == 0.0 ? 0.0 : -v_a * w * std::sin(w * (t - t0));
+  }
+  Point point(double t, double x, double v) const noexcept {
+    return {drive_force(t, x), v - base_velocity(t), base_accel(t)};
+  }
+  double drive_force(double t, double x) const noexcept { return k_d * (v_d * t - x); }
+};
+
+/// Derivative plus the forces it came from.
+struct Deriv {
+  State d;
+  double F_d, F_f;
+};
+
+template <class Model>
+inline Deriv rhs(const Model& model, const Plant& p, double t, const State& y,
+                 double ub) noexcept {
+  const double F_d = p.drive_force(t, y.x);
+  const FrictionEval fe = model(y.v - ub, y.s, F_d);
+  return {{y.v, (F_d - fe.F_f) * p.m_inv, fe.ds}, F_d, fe.F_f};
+}
+
+// ---------------------------------------------------------------------------------------------
+// Hybrid forms for event location. A mode freezes the branch of a switching model so that the
+// right-hand side is smooth inside a step; event functions are > 0 while the mode holds.
+// ---------------------------------------------------------------------------------------------
+
+enum class KMode { kSlipPos, kSlipNeg, kStick, kSatPos, kSatNeg, kEdgePos, kEdgeNeg };
+enum class RMode { kStick, kSlidePos, kSlideNeg };
+
+/// Karnopp in hybrid form. Besides slip (|v_r| > DV) and the band (stick, or saturated stick
+/// when |F_d| > F_S), a vibrating base creates sliding motion ON a band edge v_r = +-DV: the
+/// slip side pushes v_r back into the band while the band side (where the body does not
+/// accelerate but the base does) pushes it out. Filippov's convention then keeps v_r = +-DV,
+/// i.e. the body is carried by the base, with F_f = F_d - m u''. A fixed-step integration of
+/// eq. (11) approximates the same motion by chattering across the edge every step.
+struct KarnoppHybrid {
+  Karnopp m;
+  double mass;  ///< body mass [kg]
+  using Mode = KMode;
+  Mode classify(const Point& p, double /*s*/) const noexcept {
+    if (p.v_r > m.DV) return Mode::kSlipPos;
+    if (p.v_r < -m.DV) return Mode::kSlipNeg;
+    return band_mode(p);
+  }
+  Mode band_mode(const Point& p) const noexcept {
+    if (p.F_d > m.F_S) return Mode::kSatPos;
+    if (p.F_d < -m.F_S) return Mode::kSatNeg;
+    return Mode::kStick;
+  }
+  /// Body acceleration inside the band [m/s^2].
+  double band_accel(const Point& p) const noexcept {
+    return (p.F_d - std::fmin(std::fmax(p.F_d, -m.F_S), m.F_S)) / mass;
+  }
+  FrictionEval eval(Mode mode, const Point& p, double /*s*/) const noexcept {
+    switch (mode) {
+      case Mode::kSlipPos: return {m.F_slip, 0.0};
+      case Mode::kSlipNeg: return {-m.F_slip, 0.0};
+      case Mode::kStick: return {p.F_d, 0.0};
+      case Mode::kSatPos: return {m.F_S, 0.0};
+      case Mode::kSatNeg: return {-m.F_S, 0.0};
+      case Mode::kEdgePos:
+      case Mode::kEdgeNeg: return {p.F_d - mass * p.a_b, 0.0};
+    }
+    return {0.0, 0.0};
+  }
+  /// Smallest event function of the mode (> 0 inside), and the mode it leads to when it fires.
+  double event(Mode mode, const Point& p, double /*s*/, Mode* next) const noexcept {
+    const double up = m.DV - p.v_r;     // leaves the band upwards when <= 0
+    const double down = p.v_r + m.DV;  // leaves the band downwards when <= 0
+    double e = 1e300;
+    auto take = [&](double value, Mode to) {
+      if (value < e) { e = value; *next = to; }
+    };
+    switch (mode) {
+      case Mode::kSlipPos: take(-up, Mode::kStick); break;    // v_r falls to DV
+      case Mode::kSlipNeg: take(-down, Mode::kStick); break;  // v_r rises to -DV
+      case Mode::kStick:
+        take(m.F_S - p.F_d, Mode::kSatPos);
+        take(p.F_d + m.F_S, Mode::kSatNeg);
+        take(up, Mode::kSlipPos);
+        take(down, Mode::kSlipNeg);
+        break;
+      case Mode::kSatPos:
+        take(p.F_d - m.F_S, Mode::kStick);
+        take(up, Mode::kSlipPos);
+        take(down, Mode::kSlipNeg);
+        break;
+      case Mode::kSatNeg:
+        take(-m.F_S - p.F_d, Mode::kStick);
+        take(up, Mode::kSlipPos);
+        take(down, Mode::kSlipNeg);
+        break;
+      case Mode::kEdgePos:  // needs band side pushing up and slip side pushing down
+        take(band_accel(p) - p.a_b, Mode::kStick);
+        take(p.a_b - (p.F_d - m.F_slip) / mass, Mode::kSlipPos);
+        break;
+      case Mode::kEdgeNeg:
+        take(p.a_b - band_accel(p), Mode::kStick);
+        take((p.F_d + m.F_slip) / mass - p.a_b, Mode::kSlipNeg);
+        break;
+    }
+    return e;
+  }
+  /// The mode actually entered when an event of mode 'from' asks for 'to' at point p.
+  Mode settle(Mode from, Mode to, const Point& p) const noexcept {
+    const double band_flow = band_accel(p) - p.a_b;  // dv_r/dt inside the band
+    switch (to) {
+      case Mode::kStick:
+      case Mode::kSatPos:
+      case Mode::kSatNeg:
+        if (from == Mode::kSlipPos && band_flow > 0) return Mode::kEdgePos;
+        if (from == Mode::kSlipNeg && band_flow < 0) return Mode::kEdgeNeg;
+        return band_mode(p);
+      case Mode::kSlipPos: {  // at v_r = +DV, leaving the band or an edge upwards
+        if ((p.F_d - m.F_slip) / mass - p.a_b >= 0) return to;  // slip side moves away
+        if (from != Mode::kEdgePos && band_flow > 0) return Mode::kEdgePos;
+        return band_mode(p);  // both sides flow back into the band
+      }
+      case Mode::kSlipNeg: {
+        if ((p.F_d + m.F_slip) / mass - p.a_b <= 0) return to;
+        if (from != Mode::kEdgeNeg && band_flow < 0) return Mode::kEdgeNeg;
+        return band_mode(p);
+      }
+      default: return to;
+    }
+  }
+  /// Projects the state onto the entered mode's set: on an edge v_r = +-DV exactly, inside the
+  /// band |v_r| <= DV. Without this, round-off drift of 1e-11 m/s past an edge makes the band's
+  /// exit event fire at once, and the integrator ping-pongs between modes at zero step length.
+  void on_enter(Mode mode, const Point& p, State& y) const noexcept {
+    double target = p.v_r;
+    if (mode == Mode::kEdgePos) target = m.DV;
+    else if (mode == Mode::kEdgeNeg) target = -m.DV;
+    else if (mode == Mode::kStick || mode == Mode::kSatPos || mode == Mode::kSatNeg)
+      target = std::fmin(std::fmax(p.v_r, -m.DV), m.DV);
+    y.v += target - p.v_r;
+  }
+};
+
+struct ResetHybrid {
+  ResetIntegrator m;
+  using Mode = RMode;
+  Mode classify(const Point& p, double s) const noexcept {
+    if (s >= m.s0 && p.v_r > 0) return Mode::kSlidePos;
+    if (s <= -m.s0 && p.v_r < 0) return Mode::kSlideNeg;
+    return Mode::kStick;
+  }
+  FrictionEval eval(Mode mode, const Point& p, double s) const noexcept {
+    switch (mode) {
+      case Mode::kStick: return {(1.0 + m.alpha) * m.k_t * s + m.beta * p.v_r, p.v_r};
+      case Mode::kSlidePos: return {m.k_t * m.s0, 0.0};
+      case Mode::kSlideNeg: return {-m.k_t * m.s0, 0.0};
+    }
+    return {0.0, 0.0};
+  }
+  double event(Mode mode, const Point& p, double s, Mode* next) const noexcept {
+    switch (mode) {
+      case Mode::kStick: {
+        const double hi = m.s0 - s, lo = s + m.s0;
+        *next = hi < lo ? Mode::kSlidePos : Mode::kSlideNeg;
+        return hi < lo ? hi : lo;
+      }
+      case Mode::kSlidePos: *next = Mode::kStick; return p.v_r;
+      case Mode::kSlideNeg: *next = Mode::kStick; return -p.v_r;
+    }
+    return 1e300;
+  }
+  Mode settle(Mode /*from*/, Mode to, const Point&) const noexcept { return to; }
+  /// The strain sits exactly at its limit while sliding (eq. 16).
+  void on_enter(Mode mode, const Point&, State& y) const noexcept {
+    if (mode == Mode::kSlidePos) y.s = m.s0;
+    if (mode == Mode::kSlideNeg) y.s = -m.s0;
+  }
+};
+
+/// Limits beyond which a run is declared diverged (never reached by a healthy run).
+struct DivergenceGuard {
+  double v_limit;  ///< [m/s]
+  double s_limit;  ///< [m]
+  bool ok(const State& y) const noexcept {
+    return std::fabs(y.v) < v_limit && std::fabs(y.s) < s_limit && std::isfinite(y.x);
+  }
+};
+
+/// Records decimated trace samples by linear interpolation between integrator steps.
+class TraceRecorder {
+ public:
+  TraceRecorder(double rate, std::vector<TraceSample>* out) : out_(out) {
+    if (rate > 0) period_ = 1.0 / rate;
+  }
+  bool active() const noexcept { return period_ > 0; }
+  void add(const TraceSample& now) {
+    if (period_ <= 0) return;
+    if (!have_prev_) {
+      prev_ = now;
+      have_prev_ = true;
+      if (now.t >= next_t_) emit(now);
+      return;
+    }
+    while (next_t_ <= now.t) {
+      const double span = now.t - prev_.t;
+      const double w = span > 0 ? (next_t_ - prev_.t) / span : 1.0;
+      auto lerp = [&](double a, double b) { return a + w * (b - a); };
+      emit({next_t_, lerp(prev_.F_d, now.F_d), lerp(prev_.F_f, now.F_f), lerp(prev_.x, now.x),
+            lerp(prev_.v, now.v), lerp(prev_.s, now.s)});
+    }
+    prev_ = now;
+  }
+
+ private:
+  void emit(const TraceSample& s) {
+    out_->push_back(s);
+    ++count_;
+    next_t_ = static_cast<double>(count_) * period_;
+  }
+  std::vector<TraceSample>* out_;
+  double period_ = 0.0;
+  double next_t_ = 0.0;
+  std::size_t count_ = 0;
+  bool have_prev_ = false;
+  TraceSample prev_{};
+};
+
+/// What an integrator needs for one run: stage loop bookkeeping is shared by all of them.
+struct RunContext {
+  const SimConfig& cfg;
+  SimResult& result;
+  TraceRecorder trace;
+  DivergenceGuard guard;
+};
+
+std::string divergence_reason(const SimConfig& cfg, double t, const State& y, double ub,
+                              double h);
+
+inline Plant make_plant(const SimConfig& cfg) {
+  return Plant{1.0 / cfg.drive.m, cfg.drive.k_d, cfg.drive.v_d};
+}
+
+/// Runs the stage loop shared by every integrator. integrate_stage(plant, t0, t1, acc) advances
+/// the state from t0 to t1 under the stage's base motion, feeding the accumulator, and returns
+/// false when the run diverged (having filled result.status/reason/t_end).
+template <class IntegrateStage>
+void drive_stages(RunContext& ctx, const State& y, IntegrateStage&& integrate_stage) {
+  Plant plant = make_plant(ctx.cfg);
+  double t0 = 0.0;
+  for (const Stage& st : ctx.cfg.stages) {
+    const double t1 = t0 + st.duration;
+    plant.v_a = st.v_a;
+    plant.w = 2.0 * M_PI * st.f;
+    plant.t0 = t0;
+    StageAccumulator acc(t0, t1, ctx.cfg.metrics);
+    const bool ok = integrate_stage(plant, t0, t1, acc);
+    ctx.result.x_end = y.x;
+    ctx.result.v_end = y.v;
+    ctx.result.s_end = y.s;
+    if (!ok) return;
+    ctx.result.stages.push_back(acc.finish());
+    t0 = t1;
+  }
+  ctx.result.t_end = t0;
+}
+
+}  // namespace stickslip::detail

@@ -1,0 +1,40 @@
+#!/usr/bin/env bash
+# Installs every Debian 12 package stickslip needs to build, test and run.
+# Idempotent: when every package is already installed it does nothing (no apt-get update either).
+set -euo pipefail
+
+PACKAGES=(
+  build-essential cmake g++ pkg-config git
+  libeigen3-dev            # linear algebra (calibration Jacobians, covariance)
+  libboost-dev             # Asio, Beast, Math, Random (header-only parts)
+  nlohmann-json3-dev       # JSON
+  libsqlite3-dev sqlite3   # store; sqlite3 shell for inspection
+  libgtest-dev libgmock-dev # GoogleTest
+  libbenchmark-dev         # Google Benchmark
+  libvalijson-dev          # JSON Schema validation
+  libcli11-dev             # command line
+  libspdlog-dev            # logging
+  libnlopt-cxx-dev         # derivative-free optimisation
+  gnuplot-nox              # report plots
+  curl                     # end-to-end tests drive the server with curl
+  wrk                      # HTTP load benchmark
+)
+
+missing=()
+for p in "${PACKAGES[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
+    missing+=("$p")
+  fi
+done
+
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "install-deps: all ${#PACKAGES[@]} packages present"
+  exit 0
+fi
+
+echo "install-deps: installing ${missing[*]}"
+SUDO=""
+if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
+export DEBIAN_FRONTEND=noninteractive
+$SUDO apt-get update -qq
+$SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
