@@ -182,28 +182,14 @@ void adaptive(RunContext& ctx, const Sys& sys, const ErrorScale& es) {
           mode = sys.start_mode(p, t_new, out.y);
           out.k_end = sys.eval(p, t_new, out.y, mode);
         } else if (sys.event(p, t_new, out.y, mode, &next) <= 0.0) {
-          // Locate the switch inside the accepted step (regula falsi, Illinois variant).
           typename Sys::Mode dummy{};
-          double a = 0.0, fa = std::fmax(sys.event(p, t, y, mode, &dummy), 0.0);
-          double b = hh, fb = sys.event(p, t_new, out.y, mode, &dummy);
           StepOut ob = out;
-          int side = 0;
-          const double tol = std::fmax(1e-15, 1e-10 * hh);
-          for (int it = 0; it < 80 && b - a > tol; ++it) {
-            double th = (fa - fb) != 0.0 ? b - fb * (b - a) / (fb - fa) : 0.5 * (a + b);
-            if (!(th > a && th < b)) th = 0.5 * (a + b);
-            const StepOut ot = dp5_step(sys, p, t, y, k1, th, mode, L, es);
-            const double ft = sys.event(p, t + th, ot.y, mode, &dummy);
-            if (ft <= 0.0) {
-              b = th; fb = ft; ob = ot;
-              if (side == -1) fa *= 0.5;
-              side = -1;
-            } else {
-              a = th; fa = ft;
-              if (side == +1) fb *= 0.5;
-              side = +1;
-            }
-          }
+          const double b = locate_switch(
+              sys.event(p, t, y, mode, &dummy), hh, sys.event(p, t_new, out.y, mode, &dummy), ob,
+              [&](double th, StepOut& o) {
+                o = dp5_step(sys, p, t, y, k1, th, mode, L, es);
+                return sys.event(p, t + th, o.y, mode, &dummy);
+              });
           sys.event(p, t + b, ob.y, mode, &next);
           out = ob;
           t_new = (b == hh) ? t_new : t + b;

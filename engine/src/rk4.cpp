@@ -116,28 +116,14 @@ void rk4_event(RunContext& ctx, const H& hyb, State& y) {
           t = t_next;
           break;
         }
-        // Locate the switch by the Illinois variant of regula falsi on the step length.
         typename H::Mode dummy{};
-        double a = 0.0, fa = std::fmax(f.event(p, t, y, &dummy), 0.0);
-        double b = hh, fb = f.event(p, t + hh, y1, &dummy);
         State yb = y1;
-        int side = 0;
-        const double tol = std::fmax(1e-15, 1e-10 * hh);
-        for (int it = 0; it < 80 && b - a > tol; ++it) {
-          double th = (fa - fb) != 0.0 ? b - fb * (b - a) / (fb - fa) : 0.5 * (a + b);
-          if (!(th > a && th < b)) th = 0.5 * (a + b);
-          const State yt = rk4_step(f, p, t, y, th);
-          const double ft = f.event(p, t + th, yt, &dummy);
-          if (ft <= 0.0) {
-            b = th; fb = ft; yb = yt;
-            if (side == -1) fa *= 0.5;
-            side = -1;
-          } else {
-            a = th; fa = ft;
-            if (side == +1) fb *= 0.5;
-            side = +1;
-          }
-        }
+        const double b = locate_switch(
+            f.event(p, t, y, &dummy), hh, f.event(p, t + hh, y1, &dummy), yb,
+            [&](double th, State& out) {
+              out = rk4_step(f, p, t, y, th);
+              return f.event(p, t + th, out, &dummy);
+            });
         f.event(p, t + b, yb, &next);
         y = yb;
         t += b;

@@ -267,6 +267,37 @@ struct RunContext {
 std::string divergence_reason(const SimConfig& cfg, double t, const State& y, double ub,
                               double h);
 
+/// Locates the first switch in a step of length h whose frozen-mode event function is f0 (> 0,
+/// clamped) at the start and f_h (<= 0) at the end, by regula falsi with the Illinois
+/// modification. eval(theta, out) integrates the frozen mode from the step start over theta,
+/// stores the result in out and returns the event value there. On return out_h holds the result
+/// at the returned length, the first point found with the event value <= 0.
+template <class Out, class Eval>
+double locate_switch(double f0, double h, double f_h, Out& out_h, Eval&& eval) {
+  double a = 0.0, fa = std::fmax(f0, 0.0), b = h, fb = f_h;
+  int side = 0;
+  const double tol = std::fmax(1e-15, 1e-10 * h);
+  for (int it = 0; it < 80 && b - a > tol; ++it) {
+    double th = (fa - fb) != 0.0 ? b - fb * (b - a) / (fb - fa) : 0.5 * (a + b);
+    if (!(th > a && th < b)) th = 0.5 * (a + b);
+    Out ot;
+    const double ft = eval(th, ot);
+    if (ft <= 0.0) {
+      b = th;
+      fb = ft;
+      out_h = ot;
+      if (side == -1) fa *= 0.5;
+      side = -1;
+    } else {
+      a = th;
+      fa = ft;
+      if (side == +1) fb *= 0.5;
+      side = +1;
+    }
+  }
+  return b;
+}
+
 inline Plant make_plant(const SimConfig& cfg) {
   return Plant{1.0 / cfg.drive.m, cfg.drive.k_d, cfg.drive.v_d};
 }
