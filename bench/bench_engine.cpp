@@ -18,13 +18,8 @@ using stickslip::SimConfig;
 
 ModelKind model_of(int64_t i) { return static_cast<ModelKind>(i); }
 
-void BM_Rk4Speed(benchmark::State& state) {
-  const ModelKind model = model_of(state.range(0));
-  SimConfig cfg = SimConfig::seed(model, 4e-3);
-  cfg.stages[0].duration = 0.5;
-  cfg.stages[1].duration = 0.5;
-  cfg.integrator.kind = IntegratorKind::kRk4;
-  cfg.integrator.dt = 1e-6;
+// Runs cfg once per benchmark iteration; returns the total integrator steps.
+double run_timed(benchmark::State& state, const SimConfig& cfg) {
   double total_steps = 0;
   for (auto _ : state) {
     auto r = stickslip::simulate(cfg);
@@ -35,7 +30,18 @@ void BM_Rk4Speed(benchmark::State& state) {
     total_steps += static_cast<double>(r.steps);
     benchmark::DoNotOptimize(r.x_end);
   }
-  state.SetLabel(stickslip::to_string(model));
+  state.SetLabel(stickslip::to_string(cfg.model));
+  return total_steps;
+}
+
+void BM_Rk4Speed(benchmark::State& state) {
+  const ModelKind model = model_of(state.range(0));
+  SimConfig cfg = SimConfig::seed(model, 4e-3);
+  cfg.stages[0].duration = 0.5;
+  cfg.stages[1].duration = 0.5;
+  cfg.integrator.kind = IntegratorKind::kRk4;
+  cfg.integrator.dt = 1e-6;
+  const double total_steps = run_timed(state, cfg);
   state.counters["steps_per_s"] = benchmark::Counter(total_steps, benchmark::Counter::kIsRate);
 }
 
@@ -44,17 +50,7 @@ void BM_AdaptiveSeed(benchmark::State& state) {
   const double v_a = static_cast<double>(state.range(1)) * 1e-6;  // um/s -> m/s
   SimConfig cfg = SimConfig::seed(model, v_a);
   cfg.integrator.kind = IntegratorKind::kAdaptive;
-  double total_steps = 0;
-  for (auto _ : state) {
-    auto r = stickslip::simulate(cfg);
-    if (r.status != RunStatus::kOk) {
-      state.SkipWithError(r.reason.c_str());
-      break;
-    }
-    total_steps += static_cast<double>(r.steps);
-    benchmark::DoNotOptimize(r.x_end);
-  }
-  state.SetLabel(stickslip::to_string(model));
+  const double total_steps = run_timed(state, cfg);
   state.counters["steps"] =
       benchmark::Counter(total_steps, benchmark::Counter::kAvgIterations);
 }

@@ -103,6 +103,17 @@ int main(int argc, char** argv) {
                 to_string(r.status));
     std::fflush(stdout);
   };
+  // Times one single-threaded run of cfg and prints its row against the reference.
+  auto timed_row = [&row](const Case& c, const char* integ, const char* knob, double value,
+                          const SimConfig& cfg, const SimResult& ref) {
+    const auto t0 = std::chrono::steady_clock::now();
+    const SimResult r = simulate(cfg);
+    const double wall =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    char s[32];
+    std::snprintf(s, sizeof s, "%s=%g", knob, value);
+    row(c, integ, s, r, wall, rms_error(ref, r));
+  };
 
   for (std::size_t i = 0; i < cases.size(); ++i) {
     const Case& c = cases[i];
@@ -117,26 +128,14 @@ int main(int argc, char** argv) {
       SimConfig cfg = make_cfg(c, stage_dur);
       cfg.integrator.kind = IntegratorKind::kRk4;
       cfg.integrator.dt = dt;
-      const auto t0 = std::chrono::steady_clock::now();
-      SimResult r = simulate(cfg);
-      const double wall =
-          std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-      char s[32];
-      std::snprintf(s, sizeof s, "dt=%g", dt);
-      row(c, "rk4", s, r, wall, rms_error(ref, r));
+      timed_row(c, "rk4", "dt", dt, cfg, ref);
     }
     for (double rtol : {1e-5, 1e-6, 1e-7, 1e-8}) {
       SimConfig cfg = make_cfg(c, stage_dur);
       cfg.integrator.kind = IntegratorKind::kAdaptive;
       cfg.integrator.rtol = rtol;
       cfg.integrator.atol = rtol * 10.0;
-      const auto t0 = std::chrono::steady_clock::now();
-      SimResult r = simulate(cfg);
-      const double wall =
-          std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-      char s[32];
-      std::snprintf(s, sizeof s, "rtol=%g", rtol);
-      row(c, "adaptive", s, r, wall, rms_error(ref, r));
+      timed_row(c, "adaptive", "rtol", rtol, cfg, ref);
     }
   }
   return 0;
