@@ -1,0 +1,79 @@
+#pragma once
+// The study runner: computes the missing runs of a stored study across cores and stores them.
+//
+// Execution model (MuJoCo style: one read-only model, one workspace per run):
+//  - The StudySpec is shared read-only by all threads. Each run builds its own SimConfig and
+//    calls the engine, which keeps all mutable state on its own stack.
+//  - OpenMP workers take runs with schedule(dynamic) and push finished RunRecords into a queue.
+//    The calling thread is the single writer: it drains the queue into one RunWriter (batched
+//    transactions) and reports progress. No exception leaves the parallel region: an exception
+//    of one run makes that run "invalid" with the message as its error.
+//  - Results depend only on (spec, design index), never on the thread count or the schedule:
+//    every run is computed by the same sequential code whatever thread takes it.
+//  - Resume: runs already stored (Store::completed_design_indices) are skipped, so a study
+//    killed at any point is finished by running it again, without duplicates.
+//  - Cancellation: a set cancel flag stops workers from starting new runs; runs already finished
+//    are committed before run_study returns.
+
+#include <atomic>
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <optional>
+#include <string>
+
+#include "stickslip/studies/measured.h"
+#include "stickslip/studies/spec.h"
+#include "stickslip/studies/store.h"
+
+namespace stickslip::studies {
+
+struct Progress {
+  std::int64_t total = 0;   ///< runs of the study
+  std::int64_t done = 0;    ///< runs stored, any status (including those stored before)
+  std::int64_t failed = 0;  ///< stored runs with status diverged or invalid
+};
+
+struct RunnerOptions {
+  int threads = 0;  ///< OpenMP threads; 0 = OpenMP's default (OMP_NUM_THREADS or all cores)
+  WriterOptions writer;
+  /// Called on the calling thread after each commit and once at the end.
+  std::function<void(const Progress&)> on_progress;
+  /// When set and true, no new run is started; finished runs are still committed.
+  const std::atomic<bool>* cancel = nullptr;
+  /// Directory that a relative spec.measured() path is resolved against (the spec file's dir).
+  std::filesystem::path spec_dir = ".";
+};
+
+enum class RunOutcome { kCompleted, kCancelled, kFailed };
+const char* to_string(RunOutcome o) noexcept;
+
+struct RunSummary {
+  RunOutcome outcome = RunOutcome::kCompleted;
+  std::string error;             ///< why the study failed (kFailed)
+  std::int64_t total = 0;        ///< runs of the study
+  std::int64_t skipped = 0;      ///< already stored before this call
+  std::int64_t computed = 0;     ///< computed and stored by this call
+  std::int64_t failed = 0;       ///< failed runs stored by this call
+  double wall_s = 0.0;           ///< wall time of this call [s]
+  double store_s = 0.0;          ///< of which spent in the RunWriter (adds and commits) [s]
+  double compute_s = 0.0;        ///< sum over runs of their wall times [s] (CPU-seconds)
+};
+
+/// Computes one run of a study (no store involved): parameters, status, metrics, optional trace
+/// and RMSE against the matching measured run. Never throws: a bad point gives status "invalid".
+RunRecord compute_run(const StudySpec& spec, std::size_t design_index, const std::string& study_id,
+                      const MeasuredDataset* measured = nullptr);
+
+/// Runs the missing runs of study_id (which must exist in db with this spec) and sets the
+/// study's state: running while working, then succeeded (all runs stored), cancelled, or
+/// failed (store error, unreadable measured data). Never throws for a run's failure.
+RunSummary run_study(const std::filesystem::path& db, const std::string& study_id,
+                     const StudySpec& spec, const RunnerOptions& options = {});
+
+/// Creates a study for spec in db, or finds the one created earlier from the same spec
+/// (same name and canonical spec hash) that is not cancelled; returns it. Used by
+/// `stickslip study run` to create-or-resume.
+StudyRecord create_or_find_study(Store& store, const StudySpec& spec);
+
+}  // namespace stickslip::studies
