@@ -13,5 +13,7 @@ int run(int argc, char** argv);
 /// Subcommand registration (one function per command family).
 void add_simulate_command(CLI::App& app, int& exit_code);
 void add_table_command(CLI::App& app, int& exit_code);
+void add_study_command(CLI::App& app, int& exit_code);
+void add_map_command(CLI::App& app, int& exit_code);  ///< `map` and `rmse`
 
 }  // namespace stickslip::client
