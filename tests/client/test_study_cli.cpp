@@ -19,6 +19,7 @@
 #include <thread>
 
 #include "stickslip/studies/store.h"
+#include "support/temp_dir.h"
 
 namespace {
 
@@ -30,17 +31,6 @@ const std::string kBinary = std::string(STICKSLIP_BINARY_DIR) + "/client/sticksl
 
 class StudyCli : public ::testing::Test {
  protected:
-  void SetUp() override {
-    std::random_device rd;
-    dir_ = fs::temp_directory_path() /
-           ("stickslip-cli-" + std::to_string(rd()) + "-" + std::to_string(::getpid()));
-    fs::create_directories(dir_);
-  }
-  void TearDown() override {
-    std::error_code ec;
-    fs::permissions(dir_ / "ro", fs::perms::owner_all, ec);
-    fs::remove_all(dir_, ec);
-  }
   fs::path write(const std::string& name, const std::string& text) {
     std::ofstream(dir_ / name, std::ios::binary) << text;
     return dir_ / name;
@@ -61,7 +51,8 @@ class StudyCli : public ::testing::Test {
     return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, slurp(dir_ / "out.txt"),
             slurp(dir_ / "err.txt")};
   }
-  fs::path dir_;
+  stickslip::testing::TempDir tmp_{"stickslip-cli"};
+  const fs::path& dir_ = tmp_.path();
 };
 
 const char* kGood = R"({"name": "g", "stages": [{"duration": 2.5}, {"duration": 1}],

@@ -12,6 +12,8 @@
 #include <random>
 #include <string>
 
+#include "support/temp_dir.h"
+
 namespace {
 
 namespace fs = std::filesystem;
@@ -20,16 +22,6 @@ using namespace stickslip::studies;
 
 class Measured : public ::testing::Test {
  protected:
-  void SetUp() override {
-    std::random_device rd;
-    dir_ = fs::temp_directory_path() /
-           ("stickslip-measured-" + std::to_string(rd()) + "-" + std::to_string(::getpid()));
-    fs::create_directories(dir_);
-  }
-  void TearDown() override {
-    std::error_code ec;
-    fs::remove_all(dir_, ec);
-  }
   void write(const std::string& name, const std::string& text) {
     std::ofstream(dir_ / name, std::ios::binary) << text;
   }
@@ -53,7 +45,8 @@ class Measured : public ::testing::Test {
     ADD_FAILURE() << "expected a MeasuredError";
     return "";
   }
-  fs::path dir_;
+  stickslip::testing::TempDir tmp_{"stickslip-measured"};
+  const fs::path& dir_ = tmp_.path();
 };
 
 TEST_F(Measured, GoodDatasetLoadsWithDefaultsAndUnevenSampling) {

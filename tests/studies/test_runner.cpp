@@ -17,6 +17,7 @@
 
 #include "stickslip/engine/simulate.h"
 #include "stickslip/studies/map.h"
+#include "support/temp_dir.h"
 
 namespace {
 
@@ -24,24 +25,7 @@ namespace fs = std::filesystem;
 using namespace stickslip;
 using namespace stickslip::studies;
 
-class TempDir {
- public:
-  TempDir() {
-    std::random_device rd;
-    path_ = fs::temp_directory_path() / ("stickslip-runner-" + std::to_string(rd()) + "-" +
-                                         std::to_string(::getpid()));
-    fs::create_directories(path_);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path_, ec);
-  }
-  fs::path operator/(const std::string& s) const { return path_ / s; }
-  const fs::path& path() const { return path_; }
-
- private:
-  fs::path path_;
-};
+using stickslip::testing::TempDir;
 
 StudySpec parse_ok(const std::string& text) {
   ParseResult r = parse_study(text);
