@@ -37,7 +37,7 @@ struct Plant {
   Point point(double t, double x, double v) const noexcept {
     return {drive_force(t, x), v - base_velocity(t), base_accel(t)};
   }
-  double drive_force(double t, double x) const noexcept { return k_d * (v_d * t - x); }
+  double drive_force(double t, double x) const noexcept { return k_d * fmadd(v_d, t, -x); }
 };
 
 /// Derivative plus the forces it came from.
@@ -263,6 +263,9 @@ struct RunContext {
   TraceRecorder trace;
   DivergenceGuard guard;
 };
+
+/// The divergence limits simulate() uses for cfg.
+DivergenceGuard make_guard(const SimConfig& cfg);
 
 std::string divergence_reason(const SimConfig& cfg, double t, const State& y, double ub,
                               double h);
