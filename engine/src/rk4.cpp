@@ -88,9 +88,17 @@ void rk4_event(RunContext& ctx, const H& hyb, State& y) {
         const double hh = t_next - t;
         const State y1 = rk4_step(f, p, t, y, hh);
         typename H::Mode next{};
-        if (f.event(p, t + hh, y1, &next) > 0.0 || sub == 15) {
+        if (f.event(p, t + hh, y1, &next) >= 0.0) {
           y = y1;
           t = t_next;
+          break;
+        }
+        if (sub == 15) {  // safety net: never seen since events fire on < 0 (see locate_switch)
+          y = y1;
+          t = t_next;
+          mode = hyb.classify(point(t, y), y.s);
+          hyb.on_enter(mode, point(t, y), y);
+          ++ctx.result.switches;
           break;
         }
         typename H::Mode dummy{};
