@@ -89,6 +89,7 @@ int study_run(const RunArgs& a) {
                       {"skipped", sum.skipped},
                       {"computed", sum.computed},
                       {"failed", sum.failed},
+                      {"batched", sum.batched},
                       {"wall_s", sum.wall_s},
                       {"store_s", sum.store_s},
                       {"compute_s", sum.compute_s}}

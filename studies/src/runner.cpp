@@ -14,6 +14,7 @@
 #include <optional>
 #include <thread>
 
+#include "stickslip/engine/batch.h"
 #include "stickslip/engine/simulate.h"
 
 namespace stickslip::studies {
@@ -93,6 +94,100 @@ std::vector<TracePoint> stored_trace(const std::vector<TraceSample>& trace, std:
   return out;
 }
 
+// The identity columns of a run: parameters, their hash, model and va_over_vd.
+void identify(const StudySpec& spec, const DesignPoint& p, RunRecord& r) {
+  r.params_json = spec.canonical_point_json(p);
+  r.param_hash = param_hash(r.params_json);
+  if (!p.model.empty()) r.model = p.model;
+  r.va_over_vd = p.value("va_over_vd");
+}
+
+// Batched mode (engine/batch.h) runs several fixed-step rk4 runs in SIMD lanes with results
+// bitwise equal to simulate(), so it changes speed only. It applies when the study integrates
+// with rk4 and needs no trace (no stored traces, no measured data to compare with).
+bool batchable(const StudySpec& spec, const MeasuredDataset* measured) {
+  return !spec.is_analytic() && measured == nullptr && spec.trace_rate() <= 0 &&
+         spec.base_config().integrator.kind == IntegratorKind::kRk4;
+}
+
+// Groups the pending runs into jobs: runs whose configurations can share a batch (same model,
+// dt and base motion; engine/batch.h), up to the engine's lane count; every other run is a job of
+// one. Groups stay open while later runs may join them (at most kOpenGroups at a time, oldest
+// closed first), so a grid whose innermost axis is v_a still batches across its other axes.
+// The grouping depends only on the spec and the pending set, never on threads.
+std::vector<std::vector<std::size_t>> make_jobs(const StudySpec& spec,
+                                                const std::vector<std::size_t>& pending,
+                                                bool batch) {
+  std::vector<std::vector<std::size_t>> jobs;
+  if (!batch) {
+    jobs.reserve(pending.size());
+    for (std::size_t i : pending) jobs.push_back({i});
+    return jobs;
+  }
+  constexpr std::size_t kOpenGroups = 64;
+  struct Group {
+    std::vector<SimConfig> cfgs;
+    std::vector<std::size_t> indices;
+  };
+  std::deque<Group> open;
+  for (std::size_t i : pending) {
+    std::optional<SimConfig> cfg;
+    try {
+      cfg = spec.config_for(spec.point(i));
+    } catch (const std::exception&) {  // an invalid point: its own job, compute_run reports it
+    }
+    if (!cfg) {
+      jobs.push_back({i});
+      continue;
+    }
+    bool placed = false;
+    for (auto it = open.begin(); it != open.end() && !placed; ++it) {
+      it->cfgs.push_back(*cfg);
+      if (batch_compatible(it->cfgs)) {
+        it->indices.push_back(i);
+        placed = true;
+        if (static_cast<int>(it->indices.size()) >= batch_chunk_lanes(cfg->model)) {
+          jobs.push_back(std::move(it->indices));
+          open.erase(it);
+        }
+        break;
+      }
+      it->cfgs.pop_back();
+    }
+    if (placed) continue;
+    if (open.size() == kOpenGroups) {
+      jobs.push_back(std::move(open.front().indices));
+      open.pop_front();
+    }
+    open.push_back(Group{{*cfg}, {i}});
+  }
+  for (Group& g : open) jobs.push_back(std::move(g.indices));
+  return jobs;
+}
+
+// Computes a job of several batchable runs with one simulate_batch call.
+std::vector<RunRecord> compute_batch(const StudySpec& spec, const std::vector<std::size_t>& job,
+                                     const std::string& study_id) {
+  const auto t0 = Clock::now();
+  std::vector<RunRecord> out(job.size());
+  std::vector<SimConfig> cfgs;
+  cfgs.reserve(job.size());
+  for (std::size_t k = 0; k < job.size(); ++k) {
+    const DesignPoint p = spec.point(job[k]);
+    out[k].study_id = study_id;
+    out[k].design_index = static_cast<std::int64_t>(job[k]);
+    identify(spec, p, out[k]);
+    cfgs.push_back(spec.config_for(p));
+  }
+  const std::vector<SimResult> res = simulate_batch(cfgs);
+  const double each = seconds_since(t0) / static_cast<double>(job.size());
+  for (std::size_t k = 0; k < job.size(); ++k) {
+    fill_from_result(res[k], out[k]);
+    out[k].wall_time_s = each;  // the lanes ran together; each gets its share
+  }
+  return out;
+}
+
 }  // namespace
 
 const char* to_string(RunOutcome o) noexcept {
@@ -113,10 +208,7 @@ RunRecord compute_run(const StudySpec& spec, std::size_t design_index, const std
   r.design_index = static_cast<std::int64_t>(design_index);
   try {
     const DesignPoint p = spec.point(design_index);
-    r.params_json = spec.canonical_point_json(p);
-    r.param_hash = param_hash(r.params_json);
-    if (!p.model.empty()) r.model = p.model;
-    r.va_over_vd = p.value("va_over_vd");
+    identify(spec, p, r);
     if (spec.is_analytic()) {
       const double y = spec.analytic_value(p);
       StageMetricsRecord m;
@@ -238,27 +330,45 @@ RunSummary run_study(const std::filesystem::path& db, const std::string& study_i
   };
   const MeasuredDataset* mdata = measured ? &*measured : nullptr;
 
+  std::atomic<std::int64_t> batched_runs{0};
+  const std::vector<std::vector<std::size_t>> jobs =
+      make_jobs(spec, pending, batchable(spec, mdata));
   std::thread compute([&] {
-    const long n = static_cast<long>(pending.size());
+    const long n = static_cast<long>(jobs.size());
     const int threads = opt.threads > 0 ? opt.threads : omp_get_max_threads();
 #pragma omp parallel for schedule(dynamic, 1) num_threads(threads)
     for (long k = 0; k < n; ++k) {
       if (stop_requested()) continue;
-      // compute_run never throws; the guard keeps even an allocation failure inside the region.
-      RunRecord rec;
+      const std::vector<std::size_t>& job = jobs[k];
+      std::vector<RunRecord> recs;
+      // No exception may leave the region: compute_run never throws, and a batch that throws
+      // (it cannot for configurations make_jobs accepted) falls back to one run at a time.
       try {
-        rec = compute_run(spec, pending[k], study_id, mdata);
+        if (job.size() > 1) {
+          recs = compute_batch(spec, job, study_id);
+          batched_runs += static_cast<std::int64_t>(recs.size());
+        }
       } catch (...) {
-        rec.study_id = study_id;
-        rec.design_index = static_cast<std::int64_t>(pending[k]);
-        rec.params_json = "{}";
-        rec.param_hash = param_hash(rec.params_json);
-        rec.status = "invalid";
-        rec.error = "internal error while computing the run";
+        recs.clear();
       }
+      if (recs.empty())
+        for (std::size_t i : job) {
+          try {
+            recs.push_back(compute_run(spec, i, study_id, mdata));
+          } catch (...) {
+            RunRecord rec;
+            rec.study_id = study_id;
+            rec.design_index = static_cast<std::int64_t>(i);
+            rec.params_json = "{}";
+            rec.param_hash = param_hash(rec.params_json);
+            rec.status = "invalid";
+            rec.error = "internal error while computing the run";
+            recs.push_back(std::move(rec));
+          }
+        }
       {
         std::lock_guard lock(mu);
-        queue.push_back(std::move(rec));
+        for (RunRecord& rec : recs) queue.push_back(std::move(rec));
       }
       cv.notify_one();
     }
@@ -325,6 +435,7 @@ RunSummary run_study(const std::filesystem::path& db, const std::string& study_i
 
   sum.computed = committed_computed;
   sum.failed = committed_failed;
+  sum.batched = batched_runs.load();
   sum.store_s = store_s;
   if (!store_error.empty()) return fail("store: " + store_error);
 

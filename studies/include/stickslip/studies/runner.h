@@ -59,6 +59,7 @@ struct RunSummary {
   std::int64_t skipped = 0;      ///< already stored before this call
   std::int64_t computed = 0;     ///< computed and stored by this call
   std::int64_t failed = 0;       ///< failed runs stored by this call
+  std::int64_t batched = 0;      ///< runs computed in the engine's batched SIMD mode (rk4 only)
   double wall_s = 0.0;           ///< wall time of this call [s]
   double store_s = 0.0;          ///< of which spent in the RunWriter (adds and commits) [s]
   double compute_s = 0.0;        ///< sum over runs of their wall times [s] (CPU-seconds)
