@@ -2,6 +2,8 @@
 // integrator, per model, for the seed's still-base run (v_a = 0) and the v_a = 4 mm/s run.
 // The reference is event-locating RK4 (Karnopp, Reset Integrator) or plain RK4 (Dahl, LuGre)
 // at dt = 1e-7; errors are compared on the 2 kHz trace (identical sample times across runs).
+// Columns: accepted steps, rejected steps (adaptive), located switches, wall time of one
+// single-threaded run (run pinned, e.g. taskset -c 0, on a quiet machine).
 //
 // Usage: work_precision [--quick]   (--quick: 2 s + 2 s runs, reference dt = 5e-7)
 #include <omp.h>
@@ -88,8 +90,9 @@ int main(int argc, char** argv) {
 
   std::printf("# work-precision: %s runs (%g s + %g s), reference dt = %g, trace %g Hz\n",
               quick ? "quick" : "full", stage_dur, stage_dur, ref_dt, kTraceRate);
-  std::printf("%-17s %8s %-10s %-12s %11s %9s %16s %s\n", "model", "v_a[mm/s]", "integrator",
-              "setting", "steps", "wall[s]", "F_d_RMS_err[N]", "status");
+  std::printf("%-17s %8s %-10s %-12s %11s %9s %9s %9s %16s %s\n", "model", "v_a[mm/s]",
+              "integrator", "setting", "steps", "rejected", "switches", "wall[s]",
+              "F_d_RMS_err[N]", "status");
 
   auto row = [](const Case& c, const char* integ, const std::string& setting,
                 const SimResult& r, double wall, double err) {
@@ -98,9 +101,9 @@ int main(int argc, char** argv) {
       std::snprintf(errbuf, sizeof errbuf, "-");
     else
       std::snprintf(errbuf, sizeof errbuf, "%.3e", err);
-    std::printf("%-17s %8.1f %-10s %-12s %11zu %9.3f %16s %s\n", to_string(c.model),
-                c.v_a * 1e3, integ, setting.c_str(), r.steps, wall, errbuf,
-                to_string(r.status));
+    std::printf("%-17s %8.1f %-10s %-12s %11zu %9zu %9zu %9.3f %16s %s\n", to_string(c.model),
+                c.v_a * 1e3, integ, setting.c_str(), r.steps, r.rejected, r.switches, wall,
+                errbuf, to_string(r.status));
     std::fflush(stdout);
   };
   // Times one single-threaded run of cfg and prints its row against the reference.
