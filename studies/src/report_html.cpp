@@ -180,17 +180,23 @@ std::string map_section(Plotter& plot, const std::string& id, const json& map) {
                       cells[model]["amplitude"][s].is_number()
                   ? cells[model]["amplitude"][s].get<double>()
                   : std::nan("");
-        b << xval(r) << ' ' << m << ' ' << g(v) << '\n';
+        b << r << ' ' << m << ' ' << g(v) << '\n';
       }
       b << '\n';
     }
+    // x = row number (image cells must be evenly spaced), labelled with the map variable.
     b << "EOD\nset xlabel " << gp_quote(xlabel) << "\nset cblabel " << gp_quote("amplitude [N]")
-      << "\nset ytics (";
+      << "\nset xtics (";
+    const std::size_t every = std::max<std::size_t>(1, rows.size() / 10);
+    for (std::size_t r = 0; r < rows.size(); r += every)
+      b << (r ? ", " : "") << gp_quote(one_key ? fmt(rows[r]["key"][xname], "%.3g") : std::to_string(r))
+        << ' ' << r;
+    b << ")\nset xrange [-0.5:" << rows.size() - 0.5 << "]\nset ytics (";
     for (std::size_t m = 0; m < models.size(); ++m)
       b << (m ? ", " : "") << gp_quote(models[m].get<std::string>()) << ' ' << m;
     b << ")\nset yrange [-0.5:" << models.size() - 0.5 << "]\nset palette rgb 33,13,10\n"
       << "set title " << gp_quote("stick-slip amplitude, stage " + std::to_string(s + 1))
-      << "\nset autoscale xfix\nplot $d using 1:2:3 with image notitle\n";
+      << "\nplot $d using 1:2:3 with image notitle\n";
     h << plot.figure(id + "-heatmap-stage" + std::to_string(s + 1), 820, 80 + 60 * models.size() + 80,
                      b.str(),
                      "Stick-slip map (" + id + "), stage " + std::to_string(s + 1) +
@@ -358,8 +364,8 @@ std::string indices_section(Plotter& plot, const std::string& id, const json& in
           << g(x["mu_star_ci"][0]) << ' ' << g(x["mu_star_ci"][1]) << ' ' << g(x["sigma"])
           << '\n';
       b << "EOD\nset grid\nset xlabel " << gp_quote("mu* [output unit per parameter range]")
-        << "\nset ylabel " << gp_quote("sigma") << "\nset key off\nset offsets graph 0.05, graph "
-        << "0.15, graph 0.1, graph 0.05\nset title " << gp_quote("Morris screening of " + out)
+        << "\nset ylabel " << gp_quote("sigma") << "\nset key off\nset offsets 0, graph "
+        << "0.15, graph 0.1, 0\nset xrange [0:*]\nset yrange [0:*]\nset title " << gp_quote("Morris screening of " + out)
         << "\nplot $d using 2:5:3:4 with xerrorbars pt 7 lc rgb '#228833', "
            "'' using 2:5:1 with labels offset char 1,char 0.7 left\n";
       h << plot.figure(id + "-morris-" + out, 800, 500, b.str(),
