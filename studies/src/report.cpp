@@ -466,6 +466,18 @@ std::optional<fs::path> find_previous_summary(const fs::path& out_dir, const std
   return out_dir / *best / "summary.json";
 }
 
+std::vector<std::string> list_report_dates(const fs::path& out_dir) {
+  std::vector<std::string> dates;
+  std::error_code ec;
+  for (fs::directory_iterator it(out_dir, ec), end; !ec && it != end; it.increment(ec)) {
+    const std::string name = it->path().filename().string();
+    if (it->is_directory() && is_valid_date(name) && fs::exists(it->path() / "summary.json"))
+      dates.push_back(name);
+  }
+  std::sort(dates.rbegin(), dates.rend());
+  return dates;
+}
+
 // ------------------------------------------------------------------------------ all of it
 
 ReportResult build_report(const ReportConfig& config, const ReportOptions& options) {

@@ -149,6 +149,9 @@ TEST(Report, FindPreviousSummaryTakesNewestOlderDate) {
   EXPECT_EQ(find_previous_summary(dir.path(), "2026-01-05"), dir / "2026-01-03" / "summary.json");
   EXPECT_EQ(find_previous_summary(dir.path(), "2026-01-02"), dir / "2026-01-01" / "summary.json");
   EXPECT_FALSE(find_previous_summary(dir.path(), "2026-01-01").has_value());
+  EXPECT_EQ(list_report_dates(dir.path()),
+            (std::vector<std::string>{"2026-01-05", "2026-01-03", "2026-01-01"}));
+  EXPECT_TRUE(list_report_dates(dir / "missing").empty());
   EXPECT_FALSE(is_valid_date("2026-02-30"));
   EXPECT_TRUE(is_valid_date("2024-02-29"));
 }

@@ -133,6 +133,10 @@ nlohmann::json compare_summaries(const nlohmann::json* previous, const nlohmann:
 std::optional<std::filesystem::path> find_previous_summary(const std::filesystem::path& out_dir,
                                                            const std::string& date);
 
+/// Dates (YYYY-MM-DD directories holding a summary.json) of the reports in out_dir, newest
+/// first: what a server lists at GET /v1/reports (each served from out_dir/<date>/index.html).
+std::vector<std::string> list_report_dates(const std::filesystem::path& out_dir);
+
 /// Writes dir/index.html and dir/plots/*.svg from a summary (with its "changes") and the store
 /// (traces). Throws std::runtime_error when gnuplot fails (its stderr in the message).
 void render_report_html(Store& store, const nlohmann::json& summary,
