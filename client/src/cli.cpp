@@ -13,6 +13,8 @@ int run(int argc, char** argv) {
   add_table_command(app, exit_code);
   add_study_command(app, exit_code);
   add_map_command(app, exit_code);
+  add_indices_command(app, exit_code);
+  add_report_command(app, exit_code);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {

@@ -15,5 +15,7 @@ void add_simulate_command(CLI::App& app, int& exit_code);
 void add_table_command(CLI::App& app, int& exit_code);
 void add_study_command(CLI::App& app, int& exit_code);
 void add_map_command(CLI::App& app, int& exit_code);  ///< `map` and `rmse`
+void add_indices_command(CLI::App& app, int& exit_code);
+void add_report_command(CLI::App& app, int& exit_code);
 
 }  // namespace stickslip::client
