@@ -47,6 +47,7 @@ void rk4_plain(RunContext& ctx, const Model& model, State& y) {
       y.s += h6 * (k1.d.s + 2.0 * (k2.d.s + k3.d.s) + k4.d.s);
       c = c_full;
       sn = s_full;
+      after_step(p, t + h, y);
       if (!ctx.guard.ok(y)) {
         fail_diverged(ctx, t + h, y, p.v_a * c, h);
         return false;
@@ -140,6 +141,7 @@ void rk4_event(RunContext& ctx, const H& hyb, State& y) {
         ++ctx.result.switches;
       }
       t = t_next;
+      after_step(p, t, y);
       if (!ctx.guard.ok(y)) {
         fail_diverged(ctx, t, y, p.base_velocity(t), h);
         return false;
