@@ -23,6 +23,8 @@ void apply_effect_options(const std::string& effect, const std::vector<std::stri
 
 /// Subcommand registration (one function per command family).
 void add_simulate_command(CLI::App& app, int& exit_code);
+void add_synth_command(CLI::App& app, int& exit_code);
+void add_diagnose_command(CLI::App& app, int& exit_code);
 void add_table_command(CLI::App& app, int& exit_code);
 void add_study_command(CLI::App& app, int& exit_code);
 void add_map_command(CLI::App& app, int& exit_code);  ///< `map` and `rmse`
