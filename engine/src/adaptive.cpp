@@ -226,6 +226,7 @@ void adaptive(RunContext& ctx, const Sys& sys, const ErrorScale& es) {
       y = out.y;
       t = t_new;
       k1 = out.k_end;
+      if (after_step(p, t, y)) k1 = sys.eval(p, t, y, mode);  // dwell_time's clock restarted
       ++ctx.result.steps;
       if (!ctx.guard.ok(y)) {
         fail_diverged(ctx, t, y, p.base_velocity(t), hh);

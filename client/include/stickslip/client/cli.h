@@ -2,6 +2,10 @@
 // The `stickslip` command line. Subcommands register themselves on a CLI11 app; main() only
 // calls run(). Exit codes: 0 success, 1 failure, 2 bad input (message on stderr).
 #include <CLI/CLI.hpp>
+#include <string>
+#include <vector>
+
+#include "stickslip/engine/params.h"
 
 namespace stickslip::client {
 
@@ -10,8 +14,17 @@ enum ExitCode : int { kOk = 0, kFailure = 1, kBadInput = 2, kUnreachable = 3, kS
 /// Parses argv and runs the chosen subcommand; returns the process exit code.
 int run(int argc, char** argv);
 
+/// --effect ID and --effect-param NAME=VALUE (repeatable) on a subcommand (simulate, synth).
+void add_effect_options(CLI::App& cmd, std::string& effect, std::vector<std::string>& params);
+/// Applies them to cfg: the effect id, then each parameter with set_parameter. Throws
+/// InvalidParameter naming the field and the value (also for a malformed NAME=VALUE).
+void apply_effect_options(const std::string& effect, const std::vector<std::string>& params,
+                          SimConfig& cfg);
+
 /// Subcommand registration (one function per command family).
 void add_simulate_command(CLI::App& app, int& exit_code);
+void add_synth_command(CLI::App& app, int& exit_code);
+void add_diagnose_command(CLI::App& app, int& exit_code);
 void add_table_command(CLI::App& app, int& exit_code);
 void add_study_command(CLI::App& app, int& exit_code);
 void add_map_command(CLI::App& app, int& exit_code);  ///< `map` and `rmse`
