@@ -11,6 +11,8 @@ int run(int argc, char** argv) {
   int exit_code = kOk;
   add_simulate_command(app, exit_code);
   add_table_command(app, exit_code);
+  add_remote_commands(app, exit_code);
+  add_map_command(app, exit_code);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {

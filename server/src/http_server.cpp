@@ -130,11 +130,7 @@ class Session : public std::enable_shared_from_this<Session> {
 
   void on_read(beast::error_code ec, std::size_t) {
     if (ec == http::error::end_of_stream || ec == asio::error::eof) return close();
-    if (ec == beast::error::timeout) {
-      return send(problem(408, "timeout", "Request timeout",
-                          "the request was not received within the read timeout"),
-                  11, false);
-    }
+    // beast::error::timeout: tcp_stream has already closed the socket (no 408 can be sent).
     if (ec == http::error::body_limit) {
       return send(problem(413, "body-too-large", "Request body too large",
                           "the body exceeds the limit of " +

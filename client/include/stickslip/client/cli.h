@@ -2,6 +2,7 @@
 // The `stickslip` command line. Subcommands register themselves on a CLI11 app; main() only
 // calls run(). Exit codes: 0 success, 1 failure, 2 bad input (message on stderr).
 #include <CLI/CLI.hpp>
+#include <string>
 
 namespace stickslip::client {
 
@@ -13,5 +14,12 @@ int run(int argc, char** argv);
 /// Subcommand registration (one function per command family).
 void add_simulate_command(CLI::App& app, int& exit_code);
 void add_table_command(CLI::App& app, int& exit_code);
+/// submit, status, wait, runs, cancel, list: commands that talk to a stickslipd server.
+void add_remote_commands(CLI::App& app, int& exit_code);
+/// map: the stick-slip map of a study.
+void add_map_command(CLI::App& app, int& exit_code);
+/// The map of a study on a server: format "table" (stdout), "csv" or "json" (to out or stdout).
+int remote_map(const std::string& server, const std::string& id, const std::string& format,
+               const std::string& out);
 
 }  // namespace stickslip::client
