@@ -11,6 +11,7 @@ int run(int argc, char** argv) {
   int exit_code = kOk;
   add_simulate_command(app, exit_code);
   add_table_command(app, exit_code);
+  add_study_command(app, exit_code);
   add_remote_commands(app, exit_code);
   add_map_command(app, exit_code);
   try {

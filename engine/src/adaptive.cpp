@@ -181,7 +181,7 @@ void adaptive(RunContext& ctx, const Sys& sys, const ErrorScale& es) {
           zero_switches = 0;
           mode = sys.start_mode(p, t_new, out.y);
           out.k_end = sys.eval(p, t_new, out.y, mode);
-        } else if (sys.event(p, t_new, out.y, mode, &next) <= 0.0) {
+        } else if (sys.event(p, t_new, out.y, mode, &next) < 0.0) {
           typename Sys::Mode dummy{};
           StepOut ob = out;
           const double b = locate_switch(

@@ -2,19 +2,11 @@
 #include <cmath>
 
 #include "integrators.h"
+#include "rk4_step.h"
 #include "system.h"
 
 namespace stickslip::detail {
 namespace {
-
-inline State axpy(const State& y, double h, const State& d) noexcept {
-  return {y.x + h * d.x, y.v + h * d.v, y.s + h * d.s};
-}
-
-/// Number of uniform steps covering [t0, t1] with steps no longer than dt.
-inline long steps_for(double span, double dt) {
-  return std::max(1L, static_cast<long>(std::ceil(span / dt * (1.0 - 1e-12))));
-}
 
 // ---- plain RK4: the right-hand side is evaluated as it stands, switches are not located -----
 
@@ -23,32 +15,17 @@ void rk4_plain(RunContext& ctx, const Model& model, State& y) {
   drive_stages(ctx, y, [&](const Plant& p, double t0, double t1, StageAccumulator& acc) {
     const long n = steps_for(t1 - t0, ctx.cfg.integrator.dt);
     const double h = (t1 - t0) / static_cast<double>(n);
-    // Base velocity by a rotation recurrence (one sin/cos pair per step instead of three
-    // cosines), re-synchronised with the exact phase every 1024 steps to stop drift.
-    const double ch = std::cos(0.5 * p.w * h), sh = std::sin(0.5 * p.w * h);
-    double c = 1.0, sn = 0.0;
+    BasePhase ph(p.w, h);
     for (long k = 0; k < n; ++k) {
       const double t = t0 + static_cast<double>(k) * h;
-      if ((k & 1023) == 0) {
-        c = std::cos(p.w * (t - t0));
-        sn = std::sin(p.w * (t - t0));
-      }
-      const double c_half = c * ch - sn * sh, s_half = sn * ch + c * sh;
-      const double c_full = c_half * ch - s_half * sh, s_full = s_half * ch + c_half * sh;
-      const Deriv k1 = rhs(model, p, t, y, p.v_a * c);
+      ph.advance(k, t - t0);
+      const State y0 = y;
+      const Deriv k1 = rk4_plain_step(model, p, t, h, y, p.v_a * ph.c0(),
+                                      p.v_a * ph.c_half(), p.v_a * ph.c_full());
       acc.sample(t, k1.F_d, k1.F_f);
-      if (ctx.trace.active()) ctx.trace.add({t, k1.F_d, k1.F_f, y.x, y.v, y.s});
-      const Deriv k2 = rhs(model, p, t + 0.5 * h, axpy(y, 0.5 * h, k1.d), p.v_a * c_half);
-      const Deriv k3 = rhs(model, p, t + 0.5 * h, axpy(y, 0.5 * h, k2.d), p.v_a * c_half);
-      const Deriv k4 = rhs(model, p, t + h, axpy(y, h, k3.d), p.v_a * c_full);
-      const double h6 = h / 6.0;
-      y.x += h6 * (k1.d.x + 2.0 * (k2.d.x + k3.d.x) + k4.d.x);
-      y.v += h6 * (k1.d.v + 2.0 * (k2.d.v + k3.d.v) + k4.d.v);
-      y.s += h6 * (k1.d.s + 2.0 * (k2.d.s + k3.d.s) + k4.d.s);
-      c = c_full;
-      sn = s_full;
+      if (ctx.trace.active()) ctx.trace.add({t, k1.F_d, k1.F_f, y0.x, y0.v, y0.s});
       if (!ctx.guard.ok(y)) {
-        fail_diverged(ctx, t + h, y, p.v_a * c, h);
+        fail_diverged(ctx, t + h, y, p.v_a * ph.c_full(), h);
         return false;
       }
     }
@@ -111,9 +88,17 @@ void rk4_event(RunContext& ctx, const H& hyb, State& y) {
         const double hh = t_next - t;
         const State y1 = rk4_step(f, p, t, y, hh);
         typename H::Mode next{};
-        if (f.event(p, t + hh, y1, &next) > 0.0 || sub == 15) {
+        if (f.event(p, t + hh, y1, &next) >= 0.0) {
           y = y1;
           t = t_next;
+          break;
+        }
+        if (sub == 15) {  // safety net: never seen since events fire on < 0 (see locate_switch)
+          y = y1;
+          t = t_next;
+          mode = hyb.classify(point(t, y), y.s);
+          hyb.on_enter(mode, point(t, y), y);
+          ++ctx.result.switches;
           break;
         }
         typename H::Mode dummy{};

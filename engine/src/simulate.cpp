@@ -43,6 +43,19 @@ std::string divergence_reason(const SimConfig& cfg, double t, const State& y, do
   return buf;
 }
 
+DivergenceGuard make_guard(const SimConfig& cfg) {
+  // Far beyond anything physical: drive, vibration and slip velocities are mm/s to cm/s, and
+  // the strain never exceeds a few times F_S / k_t.
+  double v_a_max = 0.0;
+  for (const auto& s : cfg.stages) v_a_max = std::max(v_a_max, s.v_a);
+  const double v_slip = std::max(cfg.friction.F_S, cfg.friction.F_C) /
+                        std::sqrt(cfg.drive.k_d * cfg.drive.m);
+  const double s_scale = cfg.model == ModelKind::kResetIntegrator
+                             ? cfg.friction.s0
+                             : std::max(cfg.friction.F_S, cfg.friction.F_C) / cfg.friction.k_t;
+  return {1e3 * (cfg.drive.v_d + v_a_max + v_slip), 1e3 * s_scale};
+}
+
 void fail_diverged(RunContext& ctx, double t, const State& y, double ub, double h) {
   ctx.result.status = RunStatus::kDiverged;
   ctx.result.t_end = t;
@@ -59,18 +72,8 @@ SimResult simulate(const SimConfig& cfg) {
     for (const auto& e : errors) r.reason += (r.reason.empty() ? "" : "; ") + e;
     return r;
   }
-  // Far beyond anything physical: drive, vibration and slip velocities are mm/s to cm/s, and
-  // the strain never exceeds a few times F_S / k_t.
-  double v_a_max = 0.0;
-  for (const auto& s : cfg.stages) v_a_max = std::max(v_a_max, s.v_a);
-  const double v_slip = std::max(cfg.friction.F_S, cfg.friction.F_C) /
-                        std::sqrt(cfg.drive.k_d * cfg.drive.m);
-  const double s_scale = cfg.model == ModelKind::kResetIntegrator
-                             ? cfg.friction.s0
-                             : std::max(cfg.friction.F_S, cfg.friction.F_C) / cfg.friction.k_t;
   detail::RunContext ctx{cfg, r, detail::TraceRecorder(cfg.trace.rate, &r.trace),
-                         detail::DivergenceGuard{1e3 * (cfg.drive.v_d + v_a_max + v_slip),
-                                                 1e3 * s_scale}};
+                         detail::make_guard(cfg)};
   if (cfg.trace.rate > 0)
     r.trace.reserve(static_cast<std::size_t>(cfg.total_duration() * cfg.trace.rate) + 2);
   try {

@@ -37,7 +37,7 @@ struct Plant {
   Point point(double t, double x, double v) const noexcept {
     return {drive_force(t, x), v - base_velocity(t), base_accel(t)};
   }
-  double drive_force(double t, double x) const noexcept { return k_d * (v_d * t - x); }
+  double drive_force(double t, double x) const noexcept { return k_d * fmadd(v_d, t, -x); }
 };
 
 /// Derivative plus the forces it came from.
@@ -56,7 +56,7 @@ inline Deriv rhs(const Model& model, const Plant& p, double t, const State& y,
 
 // ---------------------------------------------------------------------------------------------
 // Hybrid forms for event location. A mode freezes the branch of a switching model so that the
-// right-hand side is smooth inside a step; event functions are > 0 while the mode holds.
+// right-hand side is smooth inside a step; event functions are >= 0 while the mode holds.
 // ---------------------------------------------------------------------------------------------
 
 enum class KMode { kSlipPos, kSlipNeg, kStick, kSatPos, kSatNeg, kEdgePos, kEdgeNeg };
@@ -98,10 +98,10 @@ struct KarnoppHybrid {
     }
     return {0.0, 0.0};
   }
-  /// Smallest event function of the mode (> 0 inside), and the mode it leads to when it fires.
+  /// Smallest event function of the mode (>= 0 inside, fires when < 0), and the mode it leads to.
   double event(Mode mode, const Point& p, double /*s*/, Mode* next) const noexcept {
-    const double up = m.DV - p.v_r;     // leaves the band upwards when <= 0
-    const double down = p.v_r + m.DV;  // leaves the band downwards when <= 0
+    const double up = m.DV - p.v_r;     // leaves the band upwards when < 0
+    const double down = p.v_r + m.DV;  // leaves the band downwards when < 0
     double e = 1e300;
     auto take = [&](double value, Mode to) {
       if (value < e) { e = value; *next = to; }
@@ -264,14 +264,25 @@ struct RunContext {
   DivergenceGuard guard;
 };
 
+/// The divergence limits simulate() uses for cfg.
+DivergenceGuard make_guard(const SimConfig& cfg);
+
 std::string divergence_reason(const SimConfig& cfg, double t, const State& y, double ub,
                               double h);
 
-/// Locates the first switch in a step of length h whose frozen-mode event function is f0 (> 0,
-/// clamped) at the start and f_h (<= 0) at the end, by regula falsi with the Illinois
+/// Locates the first switch in a step of length h whose frozen-mode event function is f0 (>= 0,
+/// clamped) at the start and f_h (< 0) at the end, by regula falsi with the Illinois
 /// modification. eval(theta, out) integrates the frozen mode from the step start over theta,
 /// stores the result in out and returns the event value there. On return out_h holds the result
-/// at the returned length, the first point found with the event value <= 0.
+/// at the returned length, the first point found with the event value < 0.
+///
+/// Events fire on a STRICTLY negative value: a mode holds while its event function is >= 0. The
+/// mode classifications use strict inequalities (F_d > F_S saturates, v_r > DV slips), so the
+/// point returned always lies in the next mode's region. With "<= 0" a switch could land exactly
+/// on the boundary (event == 0; it does at small steps, where the locator's tolerance reaches
+/// 1e-15 s), the next mode's classification sent it back to the old mode, and the old mode's
+/// event was 0 again at once: a loop of zero-length switches (the rk4_event dt = 1e-7 Karnopp
+/// bug: 3.6e7 switches, a body creeping at v_r = DV for ever).
 template <class Out, class Eval>
 double locate_switch(double f0, double h, double f_h, Out& out_h, Eval&& eval) {
   double a = 0.0, fa = std::fmax(f0, 0.0), b = h, fb = f_h;
@@ -282,7 +293,7 @@ double locate_switch(double f0, double h, double f_h, Out& out_h, Eval&& eval) {
     if (!(th > a && th < b)) th = 0.5 * (a + b);
     Out ot;
     const double ft = eval(th, ot);
-    if (ft <= 0.0) {
+    if (ft < 0.0) {
       b = th;
       fb = ft;
       out_h = ot;

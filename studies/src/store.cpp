@@ -666,9 +666,11 @@ bool is_valid_run_status(std::string_view status) noexcept {
 struct Store::Impl {
   Connection conn;
 
-  std::optional<StudyRecord> study_where(const char* where, const std::string& value) {
+  std::optional<StudyRecord> study_where(const char* where, const std::string& value,
+                                         const std::string* value2 = nullptr) {
     Statement st(conn, select_studies(where).c_str(), "reading a study");
     st.bind_text(1, value);
+    if (value2 != nullptr) st.bind_text(2, *value2);
     if (!st.step()) return std::nullopt;
     return read_study(st, conn.path());
   }
@@ -742,6 +744,13 @@ std::optional<StudyRecord> Store::get_study(const std::string& id) {
 
 std::optional<StudyRecord> Store::find_by_idempotency_key(const std::string& key) {
   return impl_->study_where("WHERE idempotency_key = ?1", key);
+}
+
+std::optional<StudyRecord> Store::find_resumable(const std::string& name,
+                                                const std::string& spec_hash) {
+  return impl_->study_where(
+      "WHERE name = ?1 AND spec_hash = ?2 AND state <> 'cancelled' ORDER BY id DESC LIMIT 1", name,
+      &spec_hash);
 }
 
 std::vector<StudyRecord> Store::list_studies(std::size_t page_size, const std::string& after_id) {

@@ -14,10 +14,10 @@ int run(int argc, char** argv);
 /// Subcommand registration (one function per command family).
 void add_simulate_command(CLI::App& app, int& exit_code);
 void add_table_command(CLI::App& app, int& exit_code);
+void add_study_command(CLI::App& app, int& exit_code);
+void add_map_command(CLI::App& app, int& exit_code);  ///< `map` (local --db, or --server) and `rmse`
 /// submit, status, wait, runs, cancel, list: commands that talk to a stickslipd server.
 void add_remote_commands(CLI::App& app, int& exit_code);
-/// map: the stick-slip map of a study.
-void add_map_command(CLI::App& app, int& exit_code);
 /// The map of a study on a server: format "table" (stdout), "csv" or "json" (to out or stdout).
 int remote_map(const std::string& server, const std::string& id, const std::string& format,
                const std::string& out);

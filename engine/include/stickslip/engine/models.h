@@ -32,6 +32,7 @@
 
 #include <cmath>
 
+#include "stickslip/engine/exp.h"
 #include "stickslip/engine/params.h"
 
 namespace stickslip {
@@ -64,9 +65,12 @@ struct Karnopp {
   double DV, F_S, F_slip;
   explicit Karnopp(const FrictionParams& p);
   static constexpr bool kHasStrain = false;
+  // Written with selects, not branches, so that the batched kernels vectorise it. Equal to
+  // sat(F_d, F_S) in the band and F_slip sgn(v_r) outside (v_r != 0 there since DV > 0).
   FrictionEval operator()(double v_r, double /*s*/, double F_d) const noexcept {
-    if (std::fabs(v_r) <= DV) return {std::fmin(std::fmax(F_d, -F_S), F_S), 0.0};
-    return {F_slip * sgn(v_r), 0.0};
+    const double stick = F_d > F_S ? F_S : (F_d < -F_S ? -F_S : F_d);
+    const double slip = std::copysign(F_slip, v_r);
+    return {std::fabs(v_r) <= DV ? stick : slip, 0.0};
   }
   double strain_scale() const noexcept { return 1.0; }
 };
@@ -90,14 +94,19 @@ struct LuGre {
   explicit LuGre(const FrictionParams& p);
   static constexpr bool kHasStrain = true;
   FrictionEval operator()(double v_r, double s, double /*F_d*/) const noexcept {
+    // Ordered (and fused) for a short dependency chain: the terms that do not wait for the exp
+    // and the division are summed first.
     const double e = stribeck(v_r);
-    const double g_kt = F_C + (F_S - F_C) * e;  // k_t g(v_r) [N]
+    const double g_kt = fmadd(F_S - F_C, e, F_C);  // k_t g(v_r) [N]
     const double ds = v_r - std::fabs(v_r) * k_t * s / g_kt;
-    return {k_t * s + h_t * e * ds + h_v * v_r, ds};
+    return {fmadd(h_t * e, ds, fmadd(k_t, s, h_v * v_r)), ds};
   }
+  /// exp(-(v_r/v_s)^2), by the vectorisable exp of exp.h (bitwise the same in single and
+  /// batched runs). Flushed to 0 beyond (v_r/v_s)^2 = 708, where exp would give subnormals
+  /// (< 3.3e-308, slow and physically meaningless).
   double stribeck(double v_r) const noexcept {
     const double q = v_r * v_r * inv_vs2;
-    return q > 745.0 ? 0.0 : std::exp(-q);  // exp underflows to 0 beyond 745 anyway
+    return q > 708.0 ? 0.0 : exp_vectorizable(-q);
   }
   double lambda(double v_r) const noexcept {
     return std::fabs(v_r) * k_t / (F_C + (F_S - F_C) * stribeck(v_r));

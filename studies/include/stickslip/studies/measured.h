@@ -66,12 +66,14 @@ inline constexpr std::size_t kMinMeasuredSamples = 20;
 /// Loads and checks a manifest and all its CSV files. Throws MeasuredError listing every problem.
 MeasuredDataset load_measured(const std::filesystem::path& manifest);
 
-/// Applies a run's conditions to cfg: drive m, k_d, v_d; two stages [0, t_on) still and
-/// [t_on, duration) at va, f (one stage when t_on >= duration or t_on == 0 with va > 0 ...
-/// see measured.cpp). Other fields of cfg are kept.
+/// Applies a run's conditions to cfg: drive m, k_d, v_d, and the stages [0, t_on) still and
+/// [t_on, duration) at va, f (only the second when t_on = 0, only the first when
+/// t_on = duration). Other fields of cfg are kept.
 void apply_conditions(const MeasuredConditions& c, SimConfig& cfg);
 
-/// True when cfg has these conditions (relative tolerance 1e-9 on every number).
+/// True when cfg has these conditions: the same m, k_d, v_d and the same base motion over time
+/// (when it starts and stops vibrating, at which v_a and f; the frequency of a still base and
+/// how the time is cut into stages do not matter). Relative tolerance 1e-9 on every number.
 bool matches_conditions(const SimConfig& cfg, const MeasuredConditions& c);
 
 /// Root-mean-square error (eq. 23 of the seed) between measured samples (t, Fd) and a simulated

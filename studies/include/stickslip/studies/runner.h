@@ -39,13 +39,17 @@ struct RunnerOptions {
   WriterOptions writer;
   /// Called on the calling thread after each commit and once at the end.
   std::function<void(const Progress&)> on_progress;
-  /// When set and true, no new run is started; finished runs are still committed.
+  /// When set and true, no new run is started; finished runs are committed and the study is
+  /// marked cancelled (a user's cancel).
   const std::atomic<bool>* cancel = nullptr;
+  /// When set and true, no new run is started; finished runs are committed and the study is left
+  /// in state running, so it resumes on the next run_study (a server shutting down).
+  const std::atomic<bool>* stop = nullptr;
   /// Directory that a relative spec.measured() path is resolved against (the spec file's dir).
   std::filesystem::path spec_dir = ".";
 };
 
-enum class RunOutcome { kCompleted, kCancelled, kFailed };
+enum class RunOutcome { kCompleted, kCancelled, kStopped, kFailed };
 const char* to_string(RunOutcome o) noexcept;
 
 struct RunSummary {
@@ -55,6 +59,7 @@ struct RunSummary {
   std::int64_t skipped = 0;      ///< already stored before this call
   std::int64_t computed = 0;     ///< computed and stored by this call
   std::int64_t failed = 0;       ///< failed runs stored by this call
+  std::int64_t batched = 0;      ///< runs computed in the engine's batched SIMD mode (rk4 only)
   double wall_s = 0.0;           ///< wall time of this call [s]
   double store_s = 0.0;          ///< of which spent in the RunWriter (adds and commits) [s]
   double compute_s = 0.0;        ///< sum over runs of their wall times [s] (CPU-seconds)
@@ -66,8 +71,11 @@ RunRecord compute_run(const StudySpec& spec, std::size_t design_index, const std
                       const MeasuredDataset* measured = nullptr);
 
 /// Runs the missing runs of study_id (which must exist in db with this spec) and sets the
-/// study's state: running while working, then succeeded (all runs stored), cancelled, or
-/// failed (store error, unreadable measured data). Never throws for a run's failure.
+/// study's state: running while working, then succeeded (all runs stored, whatever their
+/// status), cancelled, running (stopped), or failed (store error, unreadable measured data).
+/// Never throws: every problem ends up in RunSummary::error and the study's error.
+/// Analytic studies (ishigami, sobol_g) store their output y as stage 1's amplitude and
+/// mean_force.
 RunSummary run_study(const std::filesystem::path& db, const std::string& study_id,
                      const StudySpec& spec, const RunnerOptions& options = {});
 

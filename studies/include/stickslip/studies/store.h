@@ -185,6 +185,8 @@ class Store {
   void set_study_state(const std::string& id, StudyState state,
                        const std::optional<std::string>& error = std::nullopt);
   std::optional<StudyRecord> find_by_idempotency_key(const std::string& key);
+  /// The newest study with this name and spec_hash that is not cancelled (create-or-resume).
+  std::optional<StudyRecord> find_resumable(const std::string& name, const std::string& spec_hash);
 
   // --- runs (read side; writes go through RunWriter) ---
   /// Ascending design indices of the stored runs of a study, whatever their status: on resume
