@@ -8,12 +8,12 @@
 #include <cstdlib>
 #include <fstream>
 #include <iostream>
-#include <map>
 #include <memory>
 #include <sstream>
 
 #include "stickslip/client/cli.h"
 #include "stickslip/client/remote.h"
+#include "local_store.h"
 
 namespace stickslip::client {
 
@@ -115,56 +115,12 @@ std::string cell(const json& v, int precision = 4) {
   return buf;
 }
 
-/// The map as a table: one row per va_over_vd, per model the amplitude of each stage [N].
-void print_map_table(const json& m) {
-  const std::size_t stages = m.value("stages", 2);
-  std::map<double, std::map<std::string, json>> rows;
-  std::vector<json> others;  // points without va_over_vd
-  for (const auto& p : m["points"]) {
-    if (p["va_over_vd"].is_number()) rows[p["va_over_vd"].get<double>()][p["model"]] = p;
-    else others.push_back(p);
-  }
-  std::printf("stick-slip amplitude [N] per stage (FAIL: run failed, -: not computed)\n");
-  std::printf("%-10s", "va/vd");
-  for (const auto& model : m["models"])
-    for (std::size_t s = 1; s <= stages; ++s)
-      std::printf(" %16s", (model.get<std::string>() + " s" + std::to_string(s)).c_str());
-  std::printf("\n");
-  for (const auto& [ratio, by_model] : rows) {
-    std::printf("%-10.4g", ratio);
-    for (const auto& model : m["models"]) {
-      const auto it = by_model.find(model.get<std::string>());
-      for (std::size_t s = 0; s < stages; ++s) {
-        std::string text = "-";
-        if (it != by_model.end()) {
-          const std::string status = it->second.value("status", "missing");
-          if (status == "ok") text = cell(it->second["amplitude"][s]);
-          else if (status != "missing") text = "FAIL";
-        }
-        std::printf(" %16s", text.c_str());
-      }
-    }
-    std::printf("\n");
-  }
-  if (!others.empty())
-    std::printf("(%zu points without va_over_vd: use --format csv or json)\n", others.size());
-}
-
 std::string read_file(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw std::invalid_argument("cannot read spec file \"" + path + "\"");
   std::ostringstream ss;
   ss << in.rdbuf();
   return ss.str();
-}
-
-void write_output(const std::string& out, const std::string& text) {
-  if (out.empty() || out == "-") {
-    std::cout << text;
-    return;
-  }
-  std::ofstream f(out, std::ios::binary | std::ios::trunc);
-  if (!f || !(f << text)) throw std::invalid_argument("cannot write --out \"" + out + "\"");
 }
 
 }  // namespace
@@ -243,11 +199,11 @@ void add_remote_commands(CLI::App& app, int& exit_code) {
     auto o = std::make_shared<RemoteOptions>();
     auto id = std::make_shared<std::string>();
     auto csv = std::make_shared<bool>(false);
-    auto out = std::make_shared<std::string>();
+    auto out = std::make_shared<std::string>("-");
     auto* cmd = app.add_subcommand("runs", "Print a study's run results");
     cmd->add_option("ID", *id, "study id")->required();
     cmd->add_flag("--csv", *csv, "CSV, one row per run and stage");
-    cmd->add_option("--out", *out, "write to this file instead of stdout");
+    cmd->add_option("--out", *out, "output file, - for stdout")->capture_default_str();
     add_common(cmd, *o);
     cmd->callback([=, &exit_code] {
       guarded(exit_code, [&]() -> int {
@@ -327,7 +283,7 @@ void add_remote_commands(CLI::App& app, int& exit_code) {
 }
 
 int remote_map(const std::string& server, const std::string& id, const std::string& format,
-               const std::string& out) {
+               const std::string& out, const std::string& view) {
   int exit_code = kOk;
   guarded(exit_code, [&]() -> int {
     RemoteOptions o;
@@ -342,7 +298,9 @@ int remote_map(const std::string& server, const std::string& id, const std::stri
       write_output(out, m.dump(2) + "\n");
       return kOk;
     }
-    print_map_table(m);
+    write_output(out, studies::map_to_table(map_from_json(m), view == "mean_force"
+                                                                  ? studies::MapView::kMeanForce
+                                                                  : studies::MapView::kAmplitude));
     return kOk;
   });
   return exit_code;

@@ -4,6 +4,7 @@
 #include <charconv>
 
 #include "api_util.h"
+#include "stickslip/studies/export.h"
 #include "stickslip/studies/json_schema.h"
 #include "stickslip/studies/store.h"
 
@@ -78,23 +79,12 @@ bool is_json_content_type(const std::string& value) {
   return iequals(v, "application/json");
 }
 
-json optional_text(const std::optional<std::string>& s) {
-  return s ? json(*s) : json(nullptr);
-}
-
+/// The study as `stickslip study show --json` prints it (studies/export.h), plus links.
 json study_json(const StudyRecord& rec, const studies::RunCounts& counts, bool with_spec) {
   const std::string self = "/v1/studies/" + rec.id;
-  json j = {{"id", rec.id},
-            {"name", rec.name},
-            {"state", studies::to_string(rec.state)},
-            {"progress", {{"total", counts.total}, {"done", counts.done}, {"failed", counts.failed}}},
-            {"created_at", rec.created_at},
-            {"started_at", optional_text(rec.started_at)},
-            {"finished_at", optional_text(rec.finished_at)},
-            {"error", optional_text(rec.error)},
-            {"links",
-             {{"self", self}, {"runs", self + "/runs"}, {"map", self + "/map"},
-              {"cancel", self + ":cancel"}}}};
+  json j = studies::study_to_json(rec, counts);
+  j["links"] = {{"self", self}, {"runs", self + "/runs"}, {"map", self + "/map"},
+                {"cancel", self + ":cancel"}};
   if (with_spec) {
     std::vector<studies::SpecError> ignored;
     if (auto spec = studies::parse_json(rec.spec_json, &ignored)) j["spec"] = std::move(*spec);
@@ -257,8 +247,10 @@ Response Api::create_study(const Request& r) const {
     const auto& spec = *parsed.spec;
     studies::NewStudy ns;
     ns.name = spec.name();
-    ns.spec_json = r.body;
-    ns.spec_hash = studies::param_hash(spec.canonical_json());
+    // Stored like `stickslip study run` stores it (runner.h create_or_find_study): the canonical
+    // spec, with every default filled in, and its hash.
+    ns.spec_json = spec.canonical_json();
+    ns.spec_hash = studies::param_hash(ns.spec_json);
     ns.total_runs = static_cast<std::int64_t>(spec.run_count());
     ns.idempotency_key = key;
     if (key) ns.request_hash = request_hash;

@@ -6,16 +6,6 @@ namespace stickslip::server {
 
 using studies::StudyState;
 
-namespace {
-const char* outcome_text(studies::RunOutcome o) {
-  switch (o) {
-    case studies::RunOutcome::kCompleted: return "completed";
-    case studies::RunOutcome::kCancelled: return "cancelled";
-    case studies::RunOutcome::kFailed: return "failed";
-  }
-  return "?";
-}
-}  // namespace
 
 bool WorkerOptions::IsValid(std::string* why) const {
   auto fail = [&](const std::string& m) {
@@ -48,7 +38,7 @@ void Worker::shutdown() {
   {
     std::lock_guard lock(mu_);
     stopping_ = true;
-    for (auto& [id, claim] : claims_) claim->cancel.store(true);
+    for (auto& [id, claim] : claims_) claim->stop.store(true);
     threads.swap(threads_);
   }
   cv_.notify_all();
@@ -66,7 +56,6 @@ void Worker::notify() {
 CancelOutcome Worker::cancel(studies::Store& store, const std::string& id) {
   std::lock_guard lock(mu_);
   if (const auto it = claims_.find(id); it != claims_.end()) {
-    it->second->user_cancel = true;
     it->second->cancel.store(true);
     return CancelOutcome::kRequested;
   }
@@ -148,17 +137,14 @@ void Worker::run_one(studies::Store& store, const std::string& id,
     ro.threads = options_.threads;
     ro.writer = options_.writer;
     ro.cancel = &claim->cancel;
+    ro.stop = &claim->stop;
     const auto summary = run_(db_, id, *parsed.spec, ro);
-    bool put_back = false;
-    {
-      std::lock_guard lock(mu_);
-      // Stopped by shutdown, not by a user: leave it for the next start to resume.
-      put_back = summary.outcome == studies::RunOutcome::kCancelled && stopping_ &&
-                 !claim->user_cancel;
-    }
+    // Stopped by shutdown: run_study leaves it running; mark it queued (it is not running while
+    // the server is down) so the next start resumes it either way.
+    const bool put_back = summary.outcome == studies::RunOutcome::kStopped;
     if (put_back) store.set_study_state(id, StudyState::kQueued);
     spdlog::info("study {}: {} ({} computed, {} failed, {} already stored) in {:.3f} s{}{}", id,
-                 put_back ? "interrupted by shutdown, re-queued" : outcome_text(summary.outcome),
+                 put_back ? "interrupted by shutdown, re-queued" : studies::to_string(summary.outcome),
                  summary.computed, summary.failed, summary.skipped, summary.wall_s,
                  summary.error.empty() ? "" : ": ", summary.error);
   } catch (const std::exception& e) {

@@ -8,6 +8,7 @@
 #include <limits>
 #include <set>
 
+#include "stickslip/studies/map.h"
 #include "stickslip/studies/store.h"
 #include "test_support.h"
 
@@ -64,7 +65,7 @@ TEST_F(ApiTest, CreateReturns202WithLocationAndTheQueuedStudy) {
   EXPECT_EQ(r.header("Location"), "/v1/studies/" + id);
   EXPECT_EQ(s["state"], "queued");
   EXPECT_EQ(s["name"], "tiny");
-  EXPECT_EQ(s["progress"], json({{"total", 4}, {"done", 0}, {"failed", 0}}));
+  EXPECT_EQ(s["progress"], json({{"total", 4}, {"done", 0}, {"ok", 0}, {"failed", 0}}));
   EXPECT_TRUE(s["started_at"].is_null());
 
   auto store = studies::Store::open(dir_ / "api.db");
@@ -296,21 +297,22 @@ TEST_F(ApiTest, RunsArePagedAsJsonAndServedAsCsv) {
   EXPECT_EQ(j2["runs"][0]["design_index"], 3);
   EXPECT_TRUE(j2["next_page_token"].is_null());
   EXPECT_EQ(body_json(api.handle(get("/v1/studies/" + id)))["progress"],
-            json({{"total", 4}, {"done", 3}, {"failed", 1}}));
+            json({{"total", 4}, {"done", 3}, {"ok", 2}, {"failed", 1}}));
 
   const Response csv = api.handle(get("/v1/studies/" + id + "/runs", {{"Accept", "text/csv"}}));
   ASSERT_EQ(csv.status, 200);
   EXPECT_EQ(csv.header("Content-Type"), "text/csv; charset=utf-8");
-  // header + 2 stage rows + 1 row for the failed run + 2 stage rows
-  EXPECT_EQ(std::count(csv.body.begin(), csv.body.end(), '\n'), 6) << csv.body;
-  EXPECT_NE(csv.body.find("diverged,\"diverged at t = 0.3 s, x = inf\""), std::string::npos)
-      << csv.body;
+  // studies/export.h format: header + one row per run (stages as columns), failures included
+  EXPECT_EQ(std::count(csv.body.begin(), csv.body.end(), '\n'), 4) << csv.body;
+  EXPECT_EQ(csv.body.substr(0, 36), "design_index,model,va_over_vd,status") << csv.body;
+  EXPECT_NE(csv.body.find("\n1,dahl,2,diverged,"), std::string::npos) << csv.body;
+  EXPECT_NE(csv.body.find("diverged at t = 0.3 s"), std::string::npos) << csv.body;
   EXPECT_EQ(api.handle(get("/v1/studies/" + id + "/runs?format=csv")).body, csv.body);
   expect_problem(api.handle(get("/v1/studies/" + id + "/runs", {{"Accept", "image/png"}})), 406);
   expect_problem(api.handle(get("/v1/studies/" + id + "/runs?page_token=abc")), 400);
 }
 
-TEST_F(ApiTest, MapMarksMissingAndFailedCells) {
+TEST_F(ApiTest, MapIsTheStudiesMapAndMarksMissingAndFailedCells) {
   Api api(options());
   const std::string id = body_json(api.handle(post_json("/v1/studies", tiny_study())))["id"];
   {
@@ -323,24 +325,24 @@ TEST_F(ApiTest, MapMarksMissingAndFailedCells) {
   const Response r = api.handle(get("/v1/studies/" + id + "/map"));
   ASSERT_EQ(r.status, 200) << r.body;
   const json m = body_json(r);
+  // Exactly what `stickslip map --format json` prints for the same store.
+  auto store = studies::Store::open(dir_ / "api.db");
+  EXPECT_EQ(m, studies::map_to_json(studies::build_map(store, id)));
   EXPECT_EQ(m["models"], json({"dahl", "lugre"}));
-  EXPECT_EQ(m["va_over_vd"], json({0.0, 2.0}));
-  ASSERT_EQ(m["points"].size(), 4u);
-  EXPECT_EQ(m["points"][0]["status"], "ok");
-  EXPECT_EQ(m["points"][0]["amplitude"], json({2.0, nullptr}));
-  EXPECT_EQ(m["points"][1]["status"], "diverged");
-  EXPECT_EQ(m["points"][2]["status"], "missing");
-  EXPECT_EQ(m["points"][2]["model"], "lugre");
-  EXPECT_EQ(m["points"][2]["va_over_vd"], 0.0);
-  EXPECT_EQ(m["points"][3]["reduction_ratio"], 0.25);
+  EXPECT_EQ(m["missing"], 1);
+  EXPECT_EQ(m["failed"], 1);
+  ASSERT_EQ(m["rows"].size(), 2u);  // va_over_vd = 0 and 2
+  EXPECT_EQ(m["rows"][0]["key"]["va_over_vd"], 0.0);
+  EXPECT_EQ(m["rows"][0]["cells"]["dahl"]["state"], "ok");
+  EXPECT_EQ(m["rows"][0]["cells"]["dahl"]["amplitude"], json({2.0, nullptr}));
+  EXPECT_EQ(m["rows"][0]["cells"]["lugre"]["state"], "missing");
+  EXPECT_EQ(m["rows"][1]["cells"]["dahl"]["state"], "failed");
+  EXPECT_EQ(m["rows"][1]["cells"]["lugre"]["ratio"], 0.25);
 
   const Response csv = api.handle(get("/v1/studies/" + id + "/map", {{"Accept", "text/csv"}}));
   ASSERT_EQ(csv.status, 200);
-  EXPECT_EQ(csv.body.substr(0, csv.body.find('\n')),
-            "design_index,model,va_over_vd,status,amplitude_1,amplitude_2,mean_force_1,"
-            "mean_force_2,reduction_ratio,error");
-  EXPECT_NE(csv.body.find("\n2,lugre,0,missing,,,,,,\n"), std::string::npos) << csv.body;
-  EXPECT_NE(csv.body.find("\n3,lugre,2,ok,2,0.5,11,12,0.25,\n"), std::string::npos) << csv.body;
+  EXPECT_EQ(csv.body, studies::map_to_csv(studies::build_map(store, id)));
+  EXPECT_NE(csv.body.find(",lugre,missing,2,"), std::string::npos) << csv.body;
 }
 
 TEST_F(ApiTest, CancelKeepsFinishedRunsAndIsIdempotent) {

@@ -37,13 +37,21 @@ class FakeRunner {
         total_runs_ = spec.run_count();
         cv_.notify_all();
         // The cancel flag is set without a notification (like run_study, which polls it).
-        while (!released_ && !(o.cancel != nullptr && o.cancel->load())) cv_.wait_for(lock, 5ms);
+        while (!released_ && !(o.cancel != nullptr && o.cancel->load()) &&
+               !(o.stop != nullptr && o.stop->load()))
+          cv_.wait_for(lock, 5ms);
       }
       studies::RunSummary s;
       s.total = static_cast<std::int64_t>(spec.run_count());
-      const bool cancelled = o.cancel != nullptr && o.cancel->load();
-      s.outcome = cancelled ? studies::RunOutcome::kCancelled : studies::RunOutcome::kCompleted;
-      store.set_study_state(id, cancelled ? StudyState::kCancelled : StudyState::kSucceeded);
+      if (o.cancel != nullptr && o.cancel->load()) {
+        s.outcome = studies::RunOutcome::kCancelled;
+        store.set_study_state(id, StudyState::kCancelled);
+      } else if (o.stop != nullptr && o.stop->load()) {
+        s.outcome = studies::RunOutcome::kStopped;  // run_study leaves it running
+      } else {
+        s.outcome = studies::RunOutcome::kCompleted;
+        store.set_study_state(id, StudyState::kSucceeded);
+      }
       return s;
     };
   }
@@ -179,7 +187,7 @@ TEST_F(WorkerTest, ShutdownLeavesTheInterruptedStudyQueuedForTheNextStart) {
     id = create(api);
     worker.start();
     runner_.wait_started(1);
-    worker.shutdown();  // sets the cancel flag; the fake returns kCancelled
+    worker.shutdown();  // sets the stop flag; the fake returns kStopped like run_study
   }
   EXPECT_EQ(state_of(db(), id), StudyState::kQueued);
   runner_.release_all();

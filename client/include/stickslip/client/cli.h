@@ -18,8 +18,9 @@ void add_study_command(CLI::App& app, int& exit_code);
 void add_map_command(CLI::App& app, int& exit_code);  ///< `map` (local --db, or --server) and `rmse`
 /// submit, status, wait, runs, cancel, list: commands that talk to a stickslipd server.
 void add_remote_commands(CLI::App& app, int& exit_code);
-/// The map of a study on a server: format "table" (stdout), "csv" or "json" (to out or stdout).
+/// The map of a study on a server: format "table", "csv" or "json", to out ("-" = stdout);
+/// view "amplitude" or "mean_force" for the table.
 int remote_map(const std::string& server, const std::string& id, const std::string& format,
-               const std::string& out);
+               const std::string& out, const std::string& view);
 
 }  // namespace stickslip::client

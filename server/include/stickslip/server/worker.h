@@ -8,9 +8,10 @@
 // - The store is the queue: studies in state queued or running (running = interrupted by a
 //   crash or a shutdown) are picked up in id order (= creation order), so after a restart every
 //   unfinished study resumes by itself; run_study computes only the missing runs.
-// - shutdown(): no study is claimed any more and the cancel flag of every running study is set:
-//   run_study starts no new run, commits the runs that finish, and returns. The study is then put
-//   back to queued (not cancelled), so the next start resumes it. Blocks until done.
+// - shutdown(): no study is claimed any more and the stop flag (RunnerOptions::stop) of every
+//   running study is set: run_study starts no new run, commits the runs that finish, and returns
+//   kStopped. The study is then put back to queued (not cancelled), so the next start resumes
+//   it. Blocks until done. A user's cancel sets RunnerOptions::cancel instead (-> cancelled).
 // - A study whose stored spec does not parse (e.g. a limit was lowered since it was queued) is
 //   marked failed with the errors.
 
@@ -69,8 +70,8 @@ class Worker final : public Scheduler {
 
  private:
   struct Claim {
-    std::atomic<bool> cancel{false};
-    bool user_cancel = false;  // guarded by mu_
+    std::atomic<bool> cancel{false};  // a user's cancel
+    std::atomic<bool> stop{false};    // shutdown
   };
   void loop();
   /// Under mu_: the next unclaimed queued/running study, claimed; empty when none.
