@@ -61,6 +61,9 @@ int main(int argc, char** argv) {
   app.add_option("--workers", work.concurrency, "studies run at once")->capture_default_str();
   app.add_option("--threads", work.threads, "OpenMP threads per study (0 = all cores)")
       ->capture_default_str();
+  app.add_option("--worker-nice", work.nice,
+                 "nice value of the study threads, so HTTP threads preempt them (0 = none)")
+      ->capture_default_str();
   app.add_option("--max-runs", api.limits.max_runs, "largest number of runs of one study")
       ->capture_default_str();
   app.add_option("--max-body", api.max_body_bytes, "largest request body [bytes]")

@@ -86,8 +86,10 @@ json study_json(const StudyRecord& rec, const studies::RunCounts& counts, bool w
   j["links"] = {{"self", self}, {"runs", self + "/runs"}, {"map", self + "/map"},
                 {"cancel", self + ":cancel"}};
   if (with_spec) {
-    std::vector<studies::SpecError> ignored;
-    if (auto spec = studies::parse_json(rec.spec_json, &ignored)) j["spec"] = std::move(*spec);
+    // The stored spec is the canonical JSON this server (or the runner) wrote: the plain parser
+    // suffices (no duplicate-key checks needed); a damaged one is left out, not a 500.
+    json spec = json::parse(rec.spec_json, nullptr, false);
+    if (!spec.is_discarded()) j["spec"] = std::move(spec);
   }
   return j;
 }

@@ -27,8 +27,8 @@ bool ServerOptions::IsValid(std::string* why) const {
   asio::ip::make_address(bind, ec);
   if (ec) return fail("bind: not an IP address: \"" + bind + "\"");
   if (io_threads < 1) return fail("io_threads: must be >= 1, got " + std::to_string(io_threads));
-  if (handler_threads < 1)
-    return fail("handler_threads: must be >= 1, got " + std::to_string(handler_threads));
+  if (handler_threads < 0)
+    return fail("handler_threads: must be >= 0, got " + std::to_string(handler_threads));
   if (max_connections < 1) return fail("max_connections: must be >= 1");
   if (max_header_bytes < 1024) return fail("max_header_bytes: must be >= 1024");
   if (idle_timeout.count() <= 0 || read_timeout.count() <= 0 || write_timeout.count() <= 0)
@@ -54,7 +54,7 @@ struct HttpServer::Impl {
         handler(std::move(h)),
         ioc(options.io_threads),
         acceptor(ioc),
-        handlers(static_cast<std::size_t>(options.handler_threads)) {}
+        handlers(static_cast<std::size_t>(std::max(options.handler_threads, 1))) {}
 
   void accept();
 };
@@ -155,6 +155,10 @@ class Session : public std::enable_shared_from_this<Session> {
     const unsigned version = req.version();
     const bool keep_alive = req.keep_alive();
     stream_.expires_never();  // the handler pool may take a moment; the write sets its own
+    if (server_.options.handler_threads == 0) {  // inline on this I/O thread (no hand-off)
+      const Response resp = server_.handler(to_request(req));
+      return send(resp, version, keep_alive);
+    }
     asio::post(server_.handlers, [self = shared_from_this(), request = to_request(req), version,
                                   keep_alive]() mutable {
       Response resp = self->server_.handler(request);

@@ -1,6 +1,12 @@
 #include "stickslip/server/worker.h"
 
 #include <spdlog/spdlog.h>
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
 
 namespace stickslip::server {
 
@@ -15,6 +21,7 @@ bool WorkerOptions::IsValid(std::string* why) const {
   if (concurrency < 1) return fail("concurrency: must be >= 1, got " + std::to_string(concurrency));
   if (threads < 0) return fail("threads: must be >= 0, got " + std::to_string(threads));
   if (poll.count() < 1) return fail("poll: must be >= 1 ms");
+  if (nice < 0 || nice > 19) return fail("nice: must be in [0, 19], got " + std::to_string(nice));
   return true;
 }
 
@@ -90,6 +97,13 @@ std::string Worker::claim_next(studies::Store& store, std::shared_ptr<Claim>* cl
 }
 
 void Worker::loop() {
+  if (options_.nice > 0) {
+    // Linux: nice applies to the calling thread only (its tid), and threads it creates (the
+    // libgomp team of run_study) inherit it.
+    const auto tid = static_cast<id_t>(::syscall(SYS_gettid));
+    if (::setpriority(PRIO_PROCESS, tid, options_.nice) != 0)
+      spdlog::warn("worker: cannot lower its priority: {}", std::strerror(errno));
+  }
   std::unique_ptr<studies::Store> store;
   while (true) {
     std::string id;
