@@ -1,44 +1,17 @@
 #pragma once
 // Shared helpers of the server tests: temporary directories, request builders, tiny studies.
-#include <unistd.h>
-
-#include <atomic>
-#include <chrono>
-#include <filesystem>
-#include <random>
 #include <string>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
 #include "stickslip/server/http.h"
+#include "support/temp_dir.h"
 
 namespace stickslip::server::testing {
 
-namespace fs = std::filesystem;
-
-/// A fresh directory under the system temp dir, removed on destruction.
-class TempDir {
- public:
-  TempDir() {
-    static std::atomic<int> counter{0};
-    std::random_device rd;
-    path_ = fs::temp_directory_path() /
-            ("stickslip-server-" + std::to_string(::getpid()) + "-" +
-             std::to_string(counter.fetch_add(1)) + "-" + std::to_string(rd()));
-    fs::create_directories(path_);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path_, ec);
-  }
-  TempDir(const TempDir&) = delete;
-  TempDir& operator=(const TempDir&) = delete;
-  const fs::path& path() const { return path_; }
-  fs::path operator/(const std::string& name) const { return path_ / name; }
-
- private:
-  fs::path path_;
-};
+/// The shared temporary directory of the test suites (tests/support/temp_dir.h).
+using TempDir = ::stickslip::testing::TempDir;
 
 inline Request get(std::string target, std::vector<Header> headers = {}) {
   return Request{"GET", std::move(target), std::move(headers), ""};
