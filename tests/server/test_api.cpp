@@ -88,6 +88,37 @@ TEST_F(ApiTest, MalformedJsonIs400) {
   EXPECT_EQ(stored_studies(), 0u);
 }
 
+TEST_F(ApiTest, DeeplyNestedJsonIsA400NotAStackOverflow) {
+  ApiOptions o = options();
+  o.max_body_bytes = 1 << 20;
+  Api api(o);
+  // Half a million levels: parsing or validating this recursively would crash the server.
+  const std::string deep = std::string(500000, '[') + std::string(500000, ']');
+  json p = expect_problem(api.handle(post_json("/v1/studies", deep)), 400);
+  EXPECT_NE(p["detail"].get<std::string>().find("64 levels"), std::string::npos);
+  const std::string nested = R"({"name": ")" + std::string(100, '[') + R"(", "base": )" +
+                             std::string(100, '[') + std::string(100, ']') + "}";
+  expect_problem(api.handle(post_json("/v1/studies", nested)), 400);  // brackets in a string skipped
+  EXPECT_EQ(stored_studies(), 0u);
+}
+
+TEST_F(ApiTest, OddBodiesAreAll4xx) {
+  Api api(options());
+  for (const std::string body :
+       {std::string(""), std::string("[]"), std::string("null"), std::string("\"x\""),
+        std::string("1e999999"), std::string("{\"name\": \"\xff\xfe\"}"),
+        std::string(R"({"name": "x", "name": "y"})"),
+        std::string(R"({"name": "x", "design": {"type": "grid", "axes": [{"name": "k_d",
+                     "linspace": [1, 2, 1e300]}]}})"),
+        std::string(R"({"name": "x", "stages": [{"duration": -1}], "integrator": {"dt": 1}})")}) {
+    const Response r = api.handle(post_json("/v1/studies", body));
+    EXPECT_GE(r.status, 400) << body;
+    EXPECT_LT(r.status, 500) << body << " -> " << r.body;
+    EXPECT_EQ(r.header("Content-Type"), "application/problem+json") << body;
+  }
+  EXPECT_EQ(stored_studies(), 0u);
+}
+
 TEST_F(ApiTest, WrongOrMissingContentTypeIs415) {
   Api api(options());
   Request r{"POST", "/v1/studies", {{"Content-Type", "text/plain"}}, tiny_study()};
