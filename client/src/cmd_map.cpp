@@ -9,7 +9,7 @@ namespace stickslip::client {
 namespace {
 
 struct MapArgs {
-  std::string study, db, format = "table", out = "-", view = "amplitude";
+  std::string study, db, format = "table", out = "-", view = "amplitude", server;
 };
 
 int print_map(const MapArgs& a, bool rmse) {
@@ -48,11 +48,21 @@ void add_map_like(CLI::App& app, int& exit_code, const char* name, const char* h
       ->check(CLI::IsMember({"table", "csv", "json"}))
       ->capture_default_str();
   cmd->add_option("--out", a->out, "output file, - for stdout")->capture_default_str();
-  if (!rmse)
+  if (!rmse) {
     cmd->add_option("--view", a->view, "table view: amplitude or mean_force")
         ->check(CLI::IsMember({"amplitude", "mean_force"}))
         ->capture_default_str();
+    // With --server the map comes from stickslipd (GET /v1/studies/{id}/map) instead of --db.
+    cmd->add_option("--server", a->server,
+                    "read the study (by id) from this stickslipd URL instead of --db "
+                    "(token: $STICKSLIP_TOKEN)")
+        ->excludes(cmd->get_option("--db"));
+  }
   cmd->callback([a, rmse, name, &exit_code] {
+    if (!a->server.empty()) {
+      exit_code = remote_map(a->server, a->study, a->format, a->out, a->view);
+      return;
+    }
     exit_code = guarded(name, [&] { return print_map(*a, rmse); });
   });
 }

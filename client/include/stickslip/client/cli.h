@@ -27,8 +27,14 @@ void add_synth_command(CLI::App& app, int& exit_code);
 void add_diagnose_command(CLI::App& app, int& exit_code);
 void add_table_command(CLI::App& app, int& exit_code);
 void add_study_command(CLI::App& app, int& exit_code);
-void add_map_command(CLI::App& app, int& exit_code);  ///< `map` and `rmse`
+void add_map_command(CLI::App& app, int& exit_code);  ///< `map` (local --db, or --server) and `rmse`
 void add_indices_command(CLI::App& app, int& exit_code);
 void add_report_command(CLI::App& app, int& exit_code);
+/// submit, status, wait, runs, cancel, list: commands that talk to a stickslipd server.
+void add_remote_commands(CLI::App& app, int& exit_code);
+/// The map of a study on a server: format "table", "csv" or "json", to out ("-" = stdout);
+/// view "amplitude" or "mean_force" for the table.
+int remote_map(const std::string& server, const std::string& id, const std::string& format,
+               const std::string& out, const std::string& view);
 
 }  // namespace stickslip::client

@@ -1,0 +1,79 @@
+#pragma once
+// The REST API of stickslipd as pure functions Request -> Response (schemas/openapi.json).
+//
+//   POST /v1/studies                   202 + Location; Idempotency-Key honoured
+//   GET  /v1/studies                   page_size, page_token -> next_page_token
+//   GET  /v1/studies/{id}              state, progress {total, done, failed}, timestamps
+//   GET  /v1/studies/{id}/runs         JSON pages, or CSV with Accept: text/csv
+//   GET  /v1/studies/{id}/map          stick-slip map, JSON or CSV
+//   POST /v1/studies/{id}:cancel
+//   GET  /healthz, GET /metrics (Prometheus text), GET /v1/openapi.json
+//
+// Every handler leases its own Store connection from the pool, so handlers may run on any number
+// of threads at once. Bad requests are 4xx application/problem+json naming the offending field;
+// a 5xx means the server or its store failed, never the request.
+
+#include <atomic>
+#include <cstddef>
+#include <filesystem>
+#include <memory>
+#include <string>
+
+#include "stickslip/server/http.h"
+#include "stickslip/server/router.h"
+#include "stickslip/server/scheduler.h"
+#include "stickslip/server/store_pool.h"
+#include "stickslip/studies/spec.h"
+
+namespace stickslip::server {
+
+struct ApiOptions {
+  std::filesystem::path db = "stickslip.db";
+  studies::Limits limits;                 ///< runs per study, durations, dt bounds
+  std::size_t max_body_bytes = 1 << 20;   ///< larger request bodies get 413 [bytes]
+  std::string token;                      ///< bearer token for state changes; empty: none
+  std::size_t default_page_size = 50;     ///< studies per page when page_size is absent
+  std::size_t default_runs_page_size = 100;
+  std::size_t max_page_size = 1000;
+
+  bool IsValid(std::string* why) const;
+};
+
+class Api {
+ public:
+  /// Opens the store (throws studies::StoreError naming the path when it cannot) and registers
+  /// the routes. scheduler may be null (then nothing runs; cancel acts on the store directly).
+  Api(ApiOptions options, Scheduler* scheduler = nullptr);
+
+  /// Routes and handles one request. Never throws.
+  Response handle(const Request& request) const;
+  const Router& router() const noexcept { return router_; }
+  const ApiOptions& options() const noexcept { return options_; }
+
+  /// Requests answered so far, per status class (index 1..5 for 1xx..5xx) for /metrics.
+  std::uint64_t responses(int status_class) const noexcept;
+
+ private:
+  Response create_study(const Request& r) const;
+  Response list_studies(const Request& r) const;
+  Response get_study(const Request& r, const std::string& id) const;
+  Response get_runs(const Request& r, const std::string& id) const;
+  Response get_map(const Request& r, const std::string& id) const;
+  Response cancel_study(const Request& r, const std::string& id) const;
+  Response healthz(const Request& r) const;
+  Response metrics(const Request& r) const;
+  Response openapi(const Request& r) const;
+  /// nullopt when the request may change state; else the 401/403 problem.
+  std::optional<Response> check_token(const Request& r) const;
+
+  ApiOptions options_;
+  Scheduler* scheduler_;
+  mutable StorePool pool_;
+  Router router_;
+  mutable std::array<std::atomic<std::uint64_t>, 6> responses_{};
+};
+
+/// The OpenAPI 3.1 document (schemas/openapi.json) embedded at build time.
+std::string_view openapi_text() noexcept;
+
+}  // namespace stickslip::server

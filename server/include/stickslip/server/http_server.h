@@ -1,0 +1,70 @@
+#pragma once
+// The HTTP/1.1 transport of stickslipd: Boost.Beast over Boost.Asio.
+//
+// Threads: io_threads run the Asio event loop and only do I/O (accept, read, write). Each
+// parsed request is handed to a separate pool of handler_threads, which calls the pure handler
+// (store reads, validation) and posts the response back to the connection's strand, so a slow
+// handler never stalls other connections' I/O. Studies run in the Worker, on threads of its own.
+//
+// Limits, per connection:
+//  - idle_timeout: how long a connection may sit without sending the first byte of a request;
+//  - read_timeout: how long reading one whole request (header and body) may take, so a client
+//    that sends slowly cannot hold a connection (and its memory) for long;
+//  - write_timeout: the same for writing the response;
+//  - max_body_bytes / max_header_bytes: larger requests get 413 / 431 and the connection closes;
+//  - max_connections: connections beyond it get 503 immediately and are closed.
+
+#include <chrono>
+#include <cstddef>
+#include <functional>
+#include <memory>
+#include <string>
+
+#include "stickslip/server/http.h"
+
+namespace stickslip::server {
+
+struct ServerOptions {
+  std::string bind = "127.0.0.1";
+  unsigned short port = 8080;  ///< 0: an ephemeral port (see HttpServer::port())
+  int io_threads = 1;
+  int handler_threads = 2;
+  std::size_t max_body_bytes = 1 << 20;
+  std::size_t max_header_bytes = 16 << 10;
+  std::size_t max_connections = 256;
+  std::chrono::milliseconds idle_timeout{30000};
+  std::chrono::milliseconds read_timeout{10000};
+  std::chrono::milliseconds write_timeout{30000};
+
+  bool IsValid(std::string* why) const;
+};
+
+using HttpHandler = std::function<Response(const Request&)>;
+
+class HttpServer {
+ public:
+  /// Binds and listens (throws std::runtime_error naming the address when it cannot), but
+  /// serves nothing until start().
+  HttpServer(ServerOptions options, HttpHandler handler);
+  ~HttpServer();  ///< stop()
+  HttpServer(const HttpServer&) = delete;
+  HttpServer& operator=(const HttpServer&) = delete;
+
+  /// The bound port (the chosen one when options.port was 0).
+  unsigned short port() const noexcept;
+  /// Starts the I/O and handler threads.
+  void start();
+  /// Closes the listening socket: new connections are refused; open ones are still served.
+  void stop_accepting();
+  /// Stops everything and joins the threads. Idempotent.
+  void stop();
+  /// Connections open now.
+  std::size_t connections() const noexcept;
+
+  struct Impl;
+
+ private:
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace stickslip::server

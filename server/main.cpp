@@ -1,0 +1,133 @@
+// stickslipd: the stickslip job server. Thin main: options, then Api + Worker + HttpServer.
+//
+// Signals: SIGTERM / SIGINT stop accepting connections, stop the worker (no new run starts; the
+// runs in progress finish and are committed; the study stays queued and resumes on the next
+// start), then the server exits 0.
+#include <pthread.h>
+#include <signal.h>
+
+#include <CLI/CLI.hpp>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+
+#include <spdlog/spdlog.h>
+
+#include "stickslip/server/api.h"
+#include "stickslip/server/http_server.h"
+#include "stickslip/server/worker.h"
+#include "stickslip/studies/runner.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+using namespace stickslip;
+
+/// Writes text to path atomically (temporary file + rename), so a reader never sees half a port.
+void write_atomically(const fs::path& path, const std::string& text) {
+  const fs::path tmp = path.string() + ".tmp";
+  {
+    std::ofstream out(tmp, std::ios::trunc);
+    if (!out) throw std::runtime_error("cannot write " + tmp.string());
+    out << text;
+    if (!out.flush()) throw std::runtime_error("cannot write " + tmp.string());
+  }
+  fs::rename(tmp, path);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"stickslipd: REST job server for stick-slip parameter studies (API: "
+               "/v1/openapi.json)."};
+  server::ApiOptions api;
+  server::ServerOptions net;
+  server::WorkerOptions work;
+  std::string db = "stickslip.db";
+  std::string port_file;
+  std::string log_level = "info";
+  int read_timeout_s = 10, idle_timeout_s = 30;
+  app.add_option("--db", db, "SQLite store (created if missing)")->capture_default_str();
+  app.add_option("--bind", net.bind, "address to listen on")->capture_default_str();
+  app.add_option("--port", net.port, "TCP port; 0 = an ephemeral port (see --port-file)")
+      ->capture_default_str();
+  app.add_option("--port-file", port_file, "write the bound port to this file once listening");
+  app.add_option("--token", api.token,
+                 "bearer token required on state-changing endpoints (default: $STICKSLIP_TOKEN; "
+                 "none: no authentication)")
+      ->envname("STICKSLIP_TOKEN");
+  app.add_option("--workers", work.concurrency, "studies run at once")->capture_default_str();
+  app.add_option("--threads", work.threads, "OpenMP threads per study (0 = all cores)")
+      ->capture_default_str();
+  app.add_option("--worker-nice", work.nice,
+                 "nice value of the study threads, so HTTP threads preempt them (0 = none)")
+      ->capture_default_str();
+  app.add_option("--max-runs", api.limits.max_runs, "largest number of runs of one study")
+      ->capture_default_str();
+  app.add_option("--max-body", api.max_body_bytes, "largest request body [bytes]")
+      ->capture_default_str();
+  app.add_option("--max-connections", net.max_connections, "concurrent connections")
+      ->capture_default_str();
+  app.add_option("--read-timeout", read_timeout_s, "time to receive one request [s]")
+      ->capture_default_str();
+  app.add_option("--idle-timeout", idle_timeout_s, "keep-alive idle time [s]")
+      ->capture_default_str();
+  app.add_option("--io-threads", net.io_threads, "I/O threads")->capture_default_str();
+  app.add_option("--handler-threads", net.handler_threads, "request handler threads")
+      ->capture_default_str();
+  app.add_option("--log-level", log_level, "trace, debug, info, warn, error")
+      ->capture_default_str();
+  CLI11_PARSE(app, argc, argv);
+
+  spdlog::set_level(spdlog::level::from_str(log_level));
+  api.db = db;
+  net.max_body_bytes = api.max_body_bytes;
+  net.read_timeout = std::chrono::seconds(read_timeout_s);
+  net.idle_timeout = std::chrono::seconds(idle_timeout_s);
+  work.limits = api.limits;
+
+  // Block the termination signals in every thread; the main thread takes them with sigwait.
+  sigset_t signals;
+  sigemptyset(&signals);
+  sigaddset(&signals, SIGTERM);
+  sigaddset(&signals, SIGINT);
+  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+
+  try {
+    std::string why;
+    if (!net.IsValid(&why) || !work.IsValid(&why)) {
+      std::cerr << "stickslipd: " << why << "\n";
+      return 2;
+    }
+    server::Worker worker(api.db, work, &studies::run_study);
+    server::Api handlers(api, &worker);
+    server::HttpServer http(net, [&handlers](const server::Request& r) {
+      return handlers.handle(r);
+    });
+    const unsigned short port = http.port();
+    if (!port_file.empty()) write_atomically(port_file, std::to_string(port) + "\n");
+    std::printf("stickslipd listening on http://%s:%u (store %s)\n", net.bind.c_str(), port,
+                db.c_str());
+    std::fflush(stdout);
+    http.start();
+    worker.start();
+
+    int sig = 0;
+    sigwait(&signals, &sig);
+    spdlog::info("{}: stop accepting; waiting for the running batch to commit",
+                 sig == SIGTERM ? "SIGTERM" : "SIGINT");
+    http.stop_accepting();
+    worker.shutdown();
+    http.stop();
+    spdlog::info("stopped");
+    return 0;
+  } catch (const std::invalid_argument& e) {
+    std::cerr << "stickslipd: " << e.what() << "\n";
+    return 2;
+  } catch (const std::exception& e) {
+    std::cerr << "stickslipd: " << e.what() << "\n";
+    return 1;
+  }
+}

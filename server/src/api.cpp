@@ -1,0 +1,394 @@
+// Routes, authentication and the study-resource handlers of the API (see api.h).
+#include "stickslip/server/api.h"
+
+#include <charconv>
+
+#include "api_util.h"
+#include "stickslip/studies/export.h"
+#include "stickslip/studies/json_schema.h"
+#include "stickslip/studies/store.h"
+
+namespace stickslip::server {
+
+using detail::store_failure;
+using detail::unknown_study;
+using nlohmann::json;
+using studies::StoreError;
+using studies::StudyRecord;
+
+bool ApiOptions::IsValid(std::string* why) const {
+  auto fail = [&](const std::string& m) {
+    if (why != nullptr) *why = m;
+    return false;
+  };
+  if (db.empty()) return fail("db: empty path");
+  if (max_body_bytes < 64) return fail("max_body_bytes: must be >= 64, got " +
+                                       std::to_string(max_body_bytes));
+  if (limits.max_runs < 1) return fail("limits.max_runs: must be >= 1");
+  if (max_page_size < 1) return fail("max_page_size: must be >= 1");
+  if (default_page_size < 1 || default_page_size > max_page_size)
+    return fail("default_page_size: must be in [1, max_page_size], got " +
+                std::to_string(default_page_size));
+  if (default_runs_page_size < 1 || default_runs_page_size > max_page_size)
+    return fail("default_runs_page_size: must be in [1, max_page_size], got " +
+                std::to_string(default_runs_page_size));
+  for (const char c : token)
+    if (c <= ' ' || c > '~') return fail("token: only visible ASCII characters are allowed");
+  return true;
+}
+
+CancelOutcome cancel_unclaimed(studies::Store& store, const std::string& id) {
+  const auto rec = store.get_study(id);
+  if (!rec) return CancelOutcome::kNotFound;
+  if (rec->state != studies::StudyState::kQueued && rec->state != studies::StudyState::kRunning)
+    return CancelOutcome::kAlreadyFinished;
+  store.set_study_state(id, studies::StudyState::kCancelled);
+  return CancelOutcome::kCancelled;
+}
+
+namespace {
+
+bool is_valid_id(const std::string& id) {
+  if (id.empty() || id.size() > 128) return false;
+  for (const char c : id) {
+    const bool ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
+                    c == '-' || c == '_' || c == '.';
+    if (!ok) return false;
+  }
+  return true;
+}
+
+/// Constant-time comparison of two tokens (no early exit on the first differing byte).
+bool same_token(std::string_view a, std::string_view b) {
+  unsigned char diff = a.size() == b.size() ? 0 : 1;
+  const std::size_t n = std::max(a.size(), b.size());
+  for (std::size_t i = 0; i < n; ++i) {
+    const unsigned char x = i < a.size() ? static_cast<unsigned char>(a[i]) : 0;
+    const unsigned char y = i < b.size() ? static_cast<unsigned char>(b[i]) : 0;
+    diff |= static_cast<unsigned char>(x ^ y);
+  }
+  return diff == 0;
+}
+
+/// Deepest nesting of arrays and objects in JSON text (strings skipped). Checked before parsing:
+/// the parser and the schema validator recurse per level, so a body of a million '[' would
+/// otherwise overflow the stack of a handler thread and kill the server.
+std::size_t json_depth(std::string_view text, std::size_t stop_at) {
+  std::size_t depth = 0, deepest = 0;
+  bool in_string = false;
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    const char c = text[i];
+    if (in_string) {
+      if (c == '\\') ++i;
+      else if (c == '"') in_string = false;
+      continue;
+    }
+    if (c == '"') in_string = true;
+    else if (c == '[' || c == '{') {
+      deepest = std::max(deepest, ++depth);
+      if (deepest > stop_at) return deepest;
+    } else if ((c == ']' || c == '}') && depth > 0) {
+      --depth;
+    }
+  }
+  return deepest;
+}
+
+/// Far deeper than any study needs (about 6 levels), far shallower than a stack can hold.
+constexpr std::size_t kMaxJsonDepth = 64;
+
+bool is_json_content_type(const std::string& value) {
+  std::string_view v = value;
+  const auto semi = v.find(';');
+  v = v.substr(0, semi);
+  while (!v.empty() && v.back() == ' ') v.remove_suffix(1);
+  while (!v.empty() && v.front() == ' ') v.remove_prefix(1);
+  return iequals(v, "application/json");
+}
+
+/// The study as `stickslip study show --json` prints it (studies/export.h), plus links.
+json study_json(const StudyRecord& rec, const studies::RunCounts& counts, bool with_spec) {
+  const std::string self = "/v1/studies/" + rec.id;
+  json j = studies::study_to_json(rec, counts);
+  j["links"] = {{"self", self}, {"runs", self + "/runs"}, {"map", self + "/map"},
+                {"cancel", self + ":cancel"}};
+  if (with_spec) {
+    // The stored spec is the canonical JSON this server (or the runner) wrote: the plain parser
+    // suffices (no duplicate-key checks needed); a damaged one is left out, not a 500.
+    json spec = json::parse(rec.spec_json, nullptr, false);
+    if (!spec.is_discarded()) j["spec"] = std::move(spec);
+  }
+  return j;
+}
+
+Response study_response(int status, studies::Store& store, const StudyRecord& rec) {
+  Response r = json_response(status, study_json(rec, store.count_runs(rec.id), true));
+  r.set_header("Location", "/v1/studies/" + rec.id);
+  return r;
+}
+
+Response idempotency_conflict(const std::string& key, const std::string& id) {
+  return problem(422, "idempotency-key-reused", "Idempotency-Key reused",
+                 "Idempotency-Key \"" + key + "\" was already used for study " + id +
+                     " with a different request body; use a new key for a new study",
+                 {FieldError::header("Idempotency-Key", "already used with another body")},
+                 "/v1/studies");
+}
+
+}  // namespace
+
+Api::Api(ApiOptions options, Scheduler* scheduler)
+    : options_(std::move(options)), scheduler_(scheduler), pool_(options_.db) {
+  std::string why;
+  if (!options_.IsValid(&why)) throw std::invalid_argument("ApiOptions: " + why);
+  auto id_of = [](const PathParams& p) { return p.at("id"); };
+  router_.add("POST", "/v1/studies",
+              [this](const Request& r, const PathParams&) { return create_study(r); });
+  router_.add("GET", "/v1/studies",
+              [this](const Request& r, const PathParams&) { return list_studies(r); });
+  router_.add("GET", "/v1/studies/{id}", [this, id_of](const Request& r, const PathParams& p) {
+    return get_study(r, id_of(p));
+  });
+  router_.add("GET", "/v1/studies/{id}/runs",
+              [this, id_of](const Request& r, const PathParams& p) { return get_runs(r, id_of(p)); });
+  router_.add("GET", "/v1/studies/{id}/map",
+              [this, id_of](const Request& r, const PathParams& p) { return get_map(r, id_of(p)); });
+  router_.add("POST", "/v1/studies/{id}:cancel",
+              [this, id_of](const Request& r, const PathParams& p) {
+                return cancel_study(r, id_of(p));
+              });
+  // Hooks for the sensitivity issue (GET /v1/studies/{id}/indices) and the nightly reports
+  // (GET /v1/reports): add the routes here and their paths to schemas/openapi.json.
+  router_.add("GET", "/healthz", [this](const Request& r, const PathParams&) { return healthz(r); });
+  router_.add("GET", "/metrics", [this](const Request& r, const PathParams&) { return metrics(r); });
+  router_.add("GET", "/v1/openapi.json",
+              [this](const Request& r, const PathParams&) { return openapi(r); });
+  // The study schema, which openapi.json references as "study.schema.json" (a sibling both in
+  // schemas/ and under /v1/).
+  router_.add("GET", "/v1/study.schema.json", [](const Request&, const PathParams&) {
+    Response resp =
+        text_response(200, "application/schema+json", std::string(studies::study_schema_text()));
+    resp.set_header("Cache-Control", "public, max-age=3600");
+    return resp;
+  });
+}
+
+Response Api::handle(const Request& request) const {
+  Response r = router_.route(request);
+  if (!r.header("Cache-Control")) r.set_header("Cache-Control", "no-store");
+  const int cls = r.status / 100;
+  if (cls >= 1 && cls <= 5) responses_[static_cast<std::size_t>(cls)].fetch_add(1);
+  return r;
+}
+
+std::uint64_t Api::responses(int status_class) const noexcept {
+  if (status_class < 1 || status_class > 5) return 0;
+  return responses_[static_cast<std::size_t>(status_class)].load();
+}
+
+std::optional<Response> Api::check_token(const Request& r) const {
+  if (options_.token.empty()) return std::nullopt;
+  const auto auth = r.header("Authorization");
+  if (!auth) {
+    Response p = problem(401, "unauthorized", "Unauthorized",
+                         "this endpoint changes state and needs \"Authorization: Bearer <token>\"",
+                         {FieldError::header("Authorization", "missing")}, r.path());
+    p.set_header("WWW-Authenticate", "Bearer realm=\"stickslipd\"");
+    return p;
+  }
+  constexpr std::string_view kBearer = "Bearer ";
+  const bool bearer = auth->size() >= kBearer.size() &&
+                      iequals(std::string_view(*auth).substr(0, kBearer.size()), kBearer);
+  if (!bearer) {
+    Response p = problem(401, "unauthorized", "Unauthorized",
+                         "the Authorization header must use the Bearer scheme",
+                         {FieldError::header("Authorization", "not a Bearer credential")},
+                         r.path());
+    p.set_header("WWW-Authenticate", "Bearer realm=\"stickslipd\", error=\"invalid_request\"");
+    return p;
+  }
+  if (!same_token(std::string_view(*auth).substr(kBearer.size()), options_.token)) {
+    return problem(403, "forbidden", "Forbidden", "the bearer token is not valid",
+                   {FieldError::header("Authorization", "wrong token")}, r.path());
+  }
+  return std::nullopt;
+}
+
+Response Api::create_study(const Request& r) const {
+  const std::string instance = "/v1/studies";
+  if (auto denied = check_token(r)) return *denied;
+  const auto content_type = r.header("Content-Type");
+  if (!content_type || !is_json_content_type(*content_type)) {
+    return problem(415, "unsupported-media-type", "Unsupported media type",
+                   "a study must be sent as application/json, got " +
+                       (content_type ? "\"" + *content_type + "\"" : std::string("no Content-Type")),
+                   {FieldError::header("Content-Type", "expected application/json")}, instance);
+  }
+  if (r.body.size() > options_.max_body_bytes) {
+    return problem(413, "body-too-large", "Request body too large",
+                   "the body has " + std::to_string(r.body.size()) + " bytes; the limit is " +
+                       std::to_string(options_.max_body_bytes),
+                   {}, instance);
+  }
+  const auto key = r.header("Idempotency-Key");
+  if (key) {
+    bool ok = !key->empty() && key->size() <= 255;
+    for (const char c : *key) ok = ok && c > ' ' && c <= '~';
+    if (!ok) {
+      return problem(400, "invalid-header", "Invalid header",
+                     "Idempotency-Key must be 1 to 255 visible ASCII characters",
+                     {FieldError::header("Idempotency-Key", "must be 1 to 255 visible ASCII "
+                                                            "characters")},
+                     instance);
+    }
+  }
+  if (json_depth(r.body, kMaxJsonDepth) > kMaxJsonDepth) {
+    return problem(400, "malformed-json", "Malformed JSON",
+                   "the request body nests arrays and objects more than " +
+                       std::to_string(kMaxJsonDepth) + " levels deep",
+                   {FieldError::body("", "nesting deeper than " + std::to_string(kMaxJsonDepth) +
+                                             " levels")},
+                   instance);
+  }
+  std::vector<studies::SpecError> json_errors;
+  const auto doc = studies::parse_json(r.body, &json_errors);
+  if (!doc) {
+    std::vector<FieldError> fields;
+    for (const auto& e : json_errors) fields.push_back(FieldError::body(e.pointer, e.message));
+    return problem(400, "malformed-json", "Malformed JSON",
+                   "the request body is not valid JSON: " + studies::to_string(json_errors),
+                   fields, instance);
+  }
+  // The request identity for Idempotency-Key: the hash of the canonical (sorted-key, compact)
+  // JSON, so a replay that only differs in whitespace or key order is still a replay.
+  const std::string request_hash = studies::param_hash(doc->dump());
+  try {
+    auto store = pool_.acquire();
+    if (key) {
+      if (auto prior = store->find_by_idempotency_key(*key)) {
+        if (prior->request_hash != request_hash) return idempotency_conflict(*key, prior->id);
+        Response replay = study_response(202, *store, *prior);
+        replay.set_header("Idempotent-Replayed", "true");
+        return replay;
+      }
+    }
+    auto parsed = studies::parse_study(r.body, options_.limits);
+    if (!parsed.ok()) {
+      std::vector<FieldError> fields;
+      for (const auto& e : parsed.errors) fields.push_back(FieldError::body(e.pointer, e.message));
+      return problem(422, "invalid-study", "Invalid study",
+                     std::to_string(parsed.errors.size()) + " problem(s) in the study: " +
+                         studies::to_string(parsed.errors),
+                     fields, instance);
+    }
+    const auto& spec = *parsed.spec;
+    studies::NewStudy ns;
+    ns.name = spec.name();
+    // Stored like `stickslip study run` stores it (runner.h create_or_find_study): the canonical
+    // spec, with every default filled in, and its hash.
+    ns.spec_json = spec.canonical_json();
+    ns.spec_hash = studies::param_hash(ns.spec_json);
+    ns.total_runs = static_cast<std::int64_t>(spec.run_count());
+    ns.idempotency_key = key;
+    if (key) ns.request_hash = request_hash;
+    const auto created = store->create_study(ns);
+    if (!created.created) {  // the same key was stored concurrently
+      if (created.study.request_hash != request_hash)
+        return idempotency_conflict(*key, created.study.id);
+      Response replay = study_response(202, *store, created.study);
+      replay.set_header("Idempotent-Replayed", "true");
+      return replay;
+    }
+    if (scheduler_ != nullptr) scheduler_->notify();
+    return study_response(202, *store, created.study);
+  } catch (const StoreError& e) {
+    return store_failure(e, instance);
+  }
+}
+
+Response Api::list_studies(const Request& r) const {
+  const std::string instance = "/v1/studies";
+  Response error;
+  const auto page_size =
+      detail::page_size_param(r, options_.default_page_size, options_.max_page_size, &error);
+  if (!page_size) return error;
+  const auto q = r.query();
+  std::string after;
+  if (const auto t = q.find("page_token"); t != q.end()) {
+    if (!is_valid_id(t->second)) {
+      return problem(400, "invalid-parameter", "Invalid query parameter",
+                     "page_token is not a token returned by this endpoint",
+                     {FieldError::query("page_token", "not a token from next_page_token")},
+                     r.path());
+    }
+    after = t->second;
+  }
+  try {
+    auto store = pool_.acquire();
+    auto rows = store->list_studies(*page_size + 1, after);
+    json out = {{"studies", json::array()}};
+    const bool more = rows.size() > *page_size;
+    if (more) rows.pop_back();
+    for (const auto& rec : rows)
+      out["studies"].push_back(study_json(rec, store->count_runs(rec.id), false));
+    out["next_page_token"] = more ? json(rows.back().id) : json(nullptr);
+    return json_response(200, out);
+  } catch (const StoreError& e) {
+    return store_failure(e, instance);
+  }
+}
+
+Response Api::get_study(const Request& r, const std::string& id) const {
+  if (!is_valid_id(id)) return unknown_study(id, r.path());
+  try {
+    auto store = pool_.acquire();
+    const auto rec = store->get_study(id);
+    if (!rec) return unknown_study(id, r.path());
+    Response resp = json_response(200, study_json(*rec, store->count_runs(id), true));
+    return resp;
+  } catch (const StoreError& e) {
+    return store_failure(e, r.path());
+  }
+}
+
+Response Api::cancel_study(const Request& r, const std::string& id) const {
+  if (auto denied = check_token(r)) return *denied;
+  if (!is_valid_id(id)) return unknown_study(id, r.path());
+  try {
+    auto store = pool_.acquire();
+    const CancelOutcome outcome =
+        scheduler_ != nullptr ? scheduler_->cancel(*store, id) : cancel_unclaimed(*store, id);
+    if (outcome == CancelOutcome::kNotFound) return unknown_study(id, r.path());
+    const auto rec = store->get_study(id);
+    if (!rec) return unknown_study(id, r.path());
+    if (outcome == CancelOutcome::kAlreadyFinished &&
+        rec->state != studies::StudyState::kCancelled) {
+      return problem(409, "study-finished", "Study already finished",
+                     "study " + id + " is " + studies::to_string(rec->state) +
+                         " and can no longer be cancelled",
+                     {}, r.path());
+    }
+    // 202: the worker stops starting runs and marks it cancelled once its batch is committed.
+    return study_response(outcome == CancelOutcome::kRequested ? 202 : 200, *store, *rec);
+  } catch (const StoreError& e) {
+    return store_failure(e, r.path());
+  }
+}
+
+Response Api::healthz(const Request& r) const {
+  try {
+    auto store = pool_.acquire();
+    store->list_studies(1);
+    return json_response(200, {{"status", "ok"}});
+  } catch (const StoreError& e) {
+    return problem(503, "unhealthy", "Unhealthy", std::string("store: ") + e.what(), {}, r.path());
+  }
+}
+
+Response Api::openapi(const Request&) const {
+  Response resp = text_response(200, "application/json", std::string(openapi_text()));
+  resp.set_header("Cache-Control", "public, max-age=3600");
+  return resp;
+}
+
+}  // namespace stickslip::server

@@ -1,0 +1,112 @@
+#include "api_util.h"
+
+#include <charconv>
+#include <cmath>
+#include <cstdio>
+
+namespace stickslip::server::detail {
+namespace {
+
+std::string trim(std::string_view s) {
+  while (!s.empty() && (s.front() == ' ' || s.front() == '\t')) s.remove_prefix(1);
+  while (!s.empty() && (s.back() == ' ' || s.back() == '\t')) s.remove_suffix(1);
+  return std::string(s);
+}
+
+}  // namespace
+
+std::optional<Format> negotiate(const Request& r, bool csv_allowed) {
+  const auto q = r.query();
+  if (const auto f = q.find("format"); f != q.end()) {
+    if (f->second == "json") return Format::kJson;
+    if (f->second == "csv" && csv_allowed) return Format::kCsv;
+    return std::nullopt;
+  }
+  const auto accept = r.header("Accept");
+  if (!accept || trim(*accept).empty()) return Format::kJson;
+  // Media ranges in order of appearance; q=0 excludes. (Preference weights are otherwise
+  // ignored: clients of this API ask for one type.)
+  std::string_view rest = *accept;
+  while (!rest.empty()) {
+    const auto comma = rest.find(',');
+    std::string_view item = rest.substr(0, comma);
+    rest = comma == std::string_view::npos ? std::string_view{} : rest.substr(comma + 1);
+    const auto semi = item.find(';');
+    const std::string type = trim(item.substr(0, semi));
+    if (semi != std::string_view::npos) {
+      const std::string params = trim(item.substr(semi + 1));
+      if (params == "q=0" || params == "q=0.0" || params == "q=0.00" || params == "q=0.000")
+        continue;
+    }
+    if (iequals(type, "application/json") || iequals(type, "application/*") ||
+        iequals(type, "*/*"))
+      return Format::kJson;
+    if (csv_allowed && (iequals(type, "text/csv") || iequals(type, "text/*"))) return Format::kCsv;
+  }
+  return std::nullopt;
+}
+
+Response not_acceptable(const Request& r, bool csv_allowed) {
+  const std::string served = csv_allowed ? "application/json, text/csv" : "application/json";
+  return problem(406, "not-acceptable", "Not acceptable",
+                 "this resource is served as " + served +
+                     " (Accept header or query parameter format=json" +
+                     (csv_allowed ? "|csv" : "") + ")",
+                 {FieldError::header("Accept", "got \"" + r.header("Accept").value_or("") + "\"")},
+                 r.path());
+}
+
+std::optional<std::size_t> page_size_param(const Request& r, std::size_t fallback,
+                                           std::size_t max, Response* error) {
+  const auto q = r.query();
+  const auto it = q.find("page_size");
+  if (it == q.end()) return fallback;
+  std::size_t value = 0;
+  const auto& s = it->second;
+  const auto [end, ec] = std::from_chars(s.data(), s.data() + s.size(), value);
+  if (ec != std::errc{} || end != s.data() + s.size() || value < 1 || value > max) {
+    *error = problem(400, "invalid-parameter", "Invalid query parameter",
+                     "page_size must be an integer from 1 to " + std::to_string(max) + ", got \"" +
+                         s + "\"",
+                     {FieldError::query("page_size", "must be an integer from 1 to " +
+                                                         std::to_string(max) + ", got \"" + s +
+                                                         "\"")},
+                     r.path());
+    return std::nullopt;
+  }
+  return value;
+}
+
+Response unknown_study(const std::string& id, const std::string& instance) {
+  return problem(404, "study-not-found", "Study not found", "no study with id \"" + id + "\"",
+                 {}, instance);
+}
+
+Response store_failure(const studies::StoreError& e, const std::string& instance) {
+  Response r = problem(503, "store-unavailable", "Store unavailable",
+                       std::string("the study store failed: ") + e.what(), {}, instance);
+  r.set_header("Retry-After", "1");
+  return r;
+}
+
+nlohmann::json number_or_null(double v) {
+  if (!std::isfinite(v)) return nullptr;
+  return v;
+}
+
+std::string csv_number(double v) {
+  if (std::isnan(v)) return "";
+  return shortest_number(v);
+}
+
+std::string csv_text(const std::string& text) {
+  if (text.find_first_of(",\"\r\n") == std::string::npos) return text;
+  std::string out = "\"";
+  for (const char c : text) {
+    if (c == '"') out += '"';
+    out += c;
+  }
+  return out + "\"";
+}
+
+}  // namespace stickslip::server::detail

@@ -1,0 +1,40 @@
+#pragma once
+// Helpers shared by the handler files (private to the server library).
+
+#include <optional>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "stickslip/server/http.h"
+#include "stickslip/studies/store.h"
+
+namespace stickslip::server::detail {
+
+enum class Format { kJson, kCsv };
+
+/// Content negotiation for endpoints that serve JSON and CSV: the query parameter
+/// format=json|csv wins, then the Accept header (absent or */*: JSON). nullopt: 406.
+std::optional<Format> negotiate(const Request& r, bool csv_allowed);
+
+/// A 406 problem listing what the endpoint serves.
+Response not_acceptable(const Request& r, bool csv_allowed);
+
+/// Parses an optional positive integer query parameter in [1, max]; on error returns the 400
+/// problem in *error.
+std::optional<std::size_t> page_size_param(const Request& r, std::size_t fallback,
+                                           std::size_t max, Response* error);
+
+Response unknown_study(const std::string& id, const std::string& instance);
+Response store_failure(const studies::StoreError& e, const std::string& instance);
+
+/// A number, or null for NaN and infinities (JSON has neither).
+nlohmann::json number_or_null(double v);
+/// The shortest of %.15g..%.17g that reads back as v (0.1 -> "0.1").
+std::string shortest_number(double v);
+/// A CSV field: numbers with 17 significant digits, "" for NaN.
+std::string csv_number(double v);
+/// RFC 4180 quoting when the text holds a comma, quote or line break.
+std::string csv_text(const std::string& text);
+
+}  // namespace stickslip::server::detail

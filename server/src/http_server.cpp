@@ -1,0 +1,273 @@
+#include "stickslip/server/http_server.h"
+
+#include <atomic>
+#include <boost/asio.hpp>
+#include <boost/beast/core.hpp>
+#include <boost/beast/http.hpp>
+#include <boost/beast/version.hpp>
+#include <optional>
+#include <thread>
+#include <vector>
+
+#include <spdlog/spdlog.h>
+
+namespace stickslip::server {
+
+namespace asio = boost::asio;
+namespace beast = boost::beast;
+namespace http = beast::http;
+using tcp = asio::ip::tcp;
+
+bool ServerOptions::IsValid(std::string* why) const {
+  auto fail = [&](const std::string& m) {
+    if (why != nullptr) *why = m;
+    return false;
+  };
+  boost::system::error_code ec;
+  asio::ip::make_address(bind, ec);
+  if (ec) return fail("bind: not an IP address: \"" + bind + "\"");
+  if (io_threads < 1) return fail("io_threads: must be >= 1, got " + std::to_string(io_threads));
+  if (handler_threads < 0)
+    return fail("handler_threads: must be >= 0, got " + std::to_string(handler_threads));
+  if (max_connections < 1) return fail("max_connections: must be >= 1");
+  if (max_header_bytes < 1024) return fail("max_header_bytes: must be >= 1024");
+  if (idle_timeout.count() <= 0 || read_timeout.count() <= 0 || write_timeout.count() <= 0)
+    return fail("timeouts must be > 0");
+  return true;
+}
+
+struct HttpServer::Impl {
+  // Declared first, destroyed last: sessions still queued in ioc or the handler pool when they
+  // are destroyed decrement it.
+  std::atomic<std::size_t> connections{0};
+  ServerOptions options;
+  HttpHandler handler;
+  asio::io_context ioc;
+  std::optional<asio::executor_work_guard<asio::io_context::executor_type>> work;
+  tcp::acceptor acceptor;
+  asio::thread_pool handlers;
+  std::vector<std::thread> io_threads;
+  bool started = false, stopped = false;
+
+  Impl(ServerOptions o, HttpHandler h)
+      : options(std::move(o)),
+        handler(std::move(h)),
+        ioc(options.io_threads),
+        acceptor(ioc),
+        handlers(static_cast<std::size_t>(std::max(options.handler_threads, 1))) {}
+
+  void accept();
+};
+
+namespace {
+
+Request to_request(const http::request<http::string_body>& req) {
+  Request r;
+  r.method = std::string(req.method_string());
+  r.target = std::string(req.target());
+  for (const auto& field : req) r.headers.push_back({std::string(field.name_string()),
+                                                     std::string(field.value())});
+  r.body = req.body();
+  return r;
+}
+
+http::response<http::string_body> to_beast(const Response& resp, unsigned version,
+                                           bool keep_alive) {
+  http::response<http::string_body> res{static_cast<http::status>(resp.status), version};
+  res.set(http::field::server, "stickslipd");
+  for (const auto& h : resp.headers) res.set(h.name, h.value);
+  res.body() = resp.body;
+  res.keep_alive(keep_alive);
+  res.prepare_payload();
+  return res;
+}
+
+class Session : public std::enable_shared_from_this<Session> {
+ public:
+  Session(tcp::socket socket, HttpServer::Impl& server)
+      : stream_(std::move(socket)), server_(server) {
+    server_.connections.fetch_add(1);
+  }
+  ~Session() { server_.connections.fetch_sub(1); }
+
+  void start() {
+    asio::dispatch(stream_.get_executor(),
+                   beast::bind_front_handler(&Session::wait_request, shared_from_this()));
+  }
+
+  /// Over the connection limit: answer 503 and close.
+  void reject() {
+    asio::dispatch(stream_.get_executor(), [self = shared_from_this()] {
+      self->send(problem(503, "too-many-connections", "Too many connections",
+                         "the server has reached its connection limit; retry shortly"),
+                 11, false);
+    });
+  }
+
+ private:
+  // Idle phase: wait for the first byte of the next request under idle_timeout.
+  void wait_request() {
+    if (buffer_.size() > 0) return read_request();
+    stream_.expires_after(server_.options.idle_timeout);
+    stream_.async_read_some(
+        buffer_.prepare(4096),
+        [self = shared_from_this()](beast::error_code ec, std::size_t n) {
+          if (ec) return self->close();
+          self->buffer_.commit(n);
+          self->read_request();
+        });
+  }
+
+  // Read phase: the whole request under read_timeout.
+  void read_request() {
+    parser_.emplace();
+    parser_->body_limit(server_.options.max_body_bytes);
+    parser_->header_limit(static_cast<std::uint32_t>(server_.options.max_header_bytes));
+    stream_.expires_after(server_.options.read_timeout);
+    http::async_read(stream_, buffer_, *parser_,
+                     beast::bind_front_handler(&Session::on_read, shared_from_this()));
+  }
+
+  void on_read(beast::error_code ec, std::size_t) {
+    if (ec == http::error::end_of_stream || ec == asio::error::eof) return close();
+    // beast::error::timeout: tcp_stream has already closed the socket (no 408 can be sent).
+    if (ec == http::error::body_limit) {
+      return send(problem(413, "body-too-large", "Request body too large",
+                          "the body exceeds the limit of " +
+                              std::to_string(server_.options.max_body_bytes) + " bytes"),
+                  11, false);
+    }
+    if (ec == http::error::header_limit) {
+      return send(problem(431, "header-too-large", "Request header fields too large",
+                          "the header exceeds the limit of " +
+                              std::to_string(server_.options.max_header_bytes) + " bytes"),
+                  11, false);
+    }
+    if (ec) {
+      if (ec.category() == make_error_code(http::error::bad_target).category() || ec == http::error::partial_message) {
+        return send(problem(400, "bad-request", "Bad request",
+                            "the request is not valid HTTP/1.1: " + ec.message()),
+                    11, false);
+      }
+      return close();
+    }
+    auto req = parser_->release();
+    const unsigned version = req.version();
+    const bool keep_alive = req.keep_alive();
+    stream_.expires_never();  // the handler pool may take a moment; the write sets its own
+    if (server_.options.handler_threads == 0) {  // inline on this I/O thread (no hand-off)
+      const Response resp = server_.handler(to_request(req));
+      return send(resp, version, keep_alive);
+    }
+    asio::post(server_.handlers, [self = shared_from_this(), request = to_request(req), version,
+                                  keep_alive]() mutable {
+      Response resp = self->server_.handler(request);
+      asio::post(self->stream_.get_executor(),
+                 [self, resp = std::move(resp), version, keep_alive]() mutable {
+                   self->send(resp, version, keep_alive);
+                 });
+    });
+  }
+
+  void send(const Response& resp, unsigned version, bool keep_alive) {
+    response_ = to_beast(resp, version, keep_alive);
+    stream_.expires_after(server_.options.write_timeout);
+    http::async_write(stream_, response_,
+                      [self = shared_from_this(), keep_alive](beast::error_code ec, std::size_t) {
+                        if (ec || !keep_alive) return self->close();
+                        self->wait_request();
+                      });
+  }
+
+  void close() {
+    beast::error_code ec;
+    stream_.socket().shutdown(tcp::socket::shutdown_send, ec);
+    stream_.socket().close(ec);
+  }
+
+  beast::tcp_stream stream_;
+  HttpServer::Impl& server_;
+  beast::flat_buffer buffer_;
+  std::optional<http::request_parser<http::string_body>> parser_;
+  http::response<http::string_body> response_;
+};
+
+}  // namespace
+
+void HttpServer::Impl::accept() {
+  acceptor.async_accept(asio::make_strand(ioc), [this](beast::error_code ec, tcp::socket socket) {
+    if (ec == asio::error::operation_aborted || !acceptor.is_open()) return;
+    if (!ec) {
+      const bool over = connections.load() >= options.max_connections;
+      auto session = std::make_shared<Session>(std::move(socket), *this);
+      if (over) {
+        session->reject();
+      } else {
+        session->start();
+      }
+    } else {
+      spdlog::warn("accept failed: {}", ec.message());
+    }
+    accept();
+  });
+}
+
+HttpServer::HttpServer(ServerOptions options, HttpHandler handler)
+    : impl_(std::make_unique<Impl>(std::move(options), std::move(handler))) {
+  std::string why;
+  if (!impl_->options.IsValid(&why)) throw std::invalid_argument("ServerOptions: " + why);
+  const tcp::endpoint ep(asio::ip::make_address(impl_->options.bind), impl_->options.port);
+  beast::error_code ec;
+  auto& a = impl_->acceptor;
+  a.open(ep.protocol(), ec);
+  if (!ec) a.set_option(asio::socket_base::reuse_address(true), ec);
+  if (!ec) a.bind(ep, ec);
+  if (!ec) a.listen(asio::socket_base::max_listen_connections, ec);
+  if (ec) {
+    throw std::runtime_error("cannot listen on " + impl_->options.bind + ":" +
+                             std::to_string(impl_->options.port) + ": " + ec.message());
+  }
+}
+
+HttpServer::~HttpServer() { stop(); }
+
+unsigned short HttpServer::port() const noexcept {
+  beast::error_code ec;
+  const auto ep = impl_->acceptor.local_endpoint(ec);
+  return ec ? 0 : ep.port();
+}
+
+void HttpServer::start() {
+  if (impl_->started) return;
+  impl_->started = true;
+  impl_->work.emplace(impl_->ioc.get_executor());
+  impl_->accept();
+  for (int i = 0; i < impl_->options.io_threads; ++i)
+    impl_->io_threads.emplace_back([this] { impl_->ioc.run(); });
+}
+
+void HttpServer::stop_accepting() {
+  asio::post(impl_->ioc, [this] {
+    beast::error_code ec;
+    impl_->acceptor.close(ec);
+  });
+  if (!impl_->started) {
+    beast::error_code ec;
+    impl_->acceptor.close(ec);
+  }
+}
+
+void HttpServer::stop() {
+  if (impl_->stopped) return;
+  impl_->stopped = true;
+  impl_->work.reset();
+  impl_->ioc.stop();
+  for (auto& t : impl_->io_threads) t.join();
+  impl_->io_threads.clear();
+  impl_->handlers.stop();
+  impl_->handlers.join();
+}
+
+std::size_t HttpServer::connections() const noexcept { return impl_->connections.load(); }
+
+}  // namespace stickslip::server
