@@ -7,6 +7,8 @@
 //   GET  /v1/studies/{id}/runs         JSON pages, or CSV with Accept: text/csv
 //   GET  /v1/studies/{id}/map          stick-slip map, JSON or CSV
 //   POST /v1/studies/{id}:cancel
+//   GET  /v1/studies/{id}/indices      Sobol / Morris indices (output=a,b; confidence=0.95)
+//   GET  /v1/reports                   nightly reports (dates); GET /v1/reports/{date}/...
 //   GET  /healthz, GET /metrics (Prometheus text), GET /v1/openapi.json
 //
 // Every handler leases its own Store connection from the pool, so handlers may run on any number
@@ -35,6 +37,7 @@ struct ApiOptions {
   std::size_t default_page_size = 50;     ///< studies per page when page_size is absent
   std::size_t default_runs_page_size = 100;
   std::size_t max_page_size = 1000;
+  std::filesystem::path reports_dir;      ///< `stickslip report --out` directory; empty: none
 
   bool IsValid(std::string* why) const;
 };
@@ -60,6 +63,11 @@ class Api {
   Response get_runs(const Request& r, const std::string& id) const;
   Response get_map(const Request& r, const std::string& id) const;
   Response cancel_study(const Request& r, const std::string& id) const;
+  Response get_indices(const Request& r, const std::string& id) const;
+  Response list_reports(const Request& r) const;
+  /// A file of a report: reports_dir/date/sub/name (sub "" or "plots"); names are checked.
+  Response get_report_file(const Request& r, const std::string& date, const std::string& sub,
+                           const std::string& name) const;
   Response healthz(const Request& r) const;
   Response metrics(const Request& r) const;
   Response openapi(const Request& r) const;
