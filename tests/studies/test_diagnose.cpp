@@ -146,8 +146,9 @@ TEST_P(HiddenEffect, FindsTheRightCause) {
     EXPECT_EQ(d.cause, to_string(h.kind)) << "seed " << s << "\n" << summary_text(d);
     EXPECT_GT(d.gain, 0.0) << "seed " << s;
     for (const auto& c : d.candidates)
-      if (c.kind == h.kind && !c.params.empty())
+      if (c.kind == h.kind && !c.params.empty()) {
         EXPECT_NEAR(c.params[0].value, h.value, h.rel_tol * std::fabs(h.value)) << "seed " << s;
+      }
   }
 }
 
