@@ -8,7 +8,8 @@
 #
 # Environment: DURATION (s, default 30), CONNECTIONS (default 50), WRK_THREADS (default 2),
 # BASELINE (s, no-load window, default 30), POLL_MS (pause of each client between two polls,
-# default 0 = back to back, i.e. as fast as the server answers; e.g. 100 = 50 clients at 10 Hz). Targets: 0 errors, p99 <= 50 ms, drop <= 10 %.
+# default 0 = back to back, i.e. as fast as the server answers; e.g. 100 = 50 clients at 10 Hz),
+# DAEMON_ARGS (extra stickslipd options, e.g. "--handler-threads 0"). Targets: 0 errors, p99 <= 50 ms, drop <= 10 %.
 # Note that wrk runs on the same 2-core machine, so its own CPU use counts in the drop.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -34,7 +35,7 @@ cleanup() {
 trap cleanup EXIT
 
 "$BUILD/server/stickslipd" --db "$WORK/load.db" --port 0 --port-file "$WORK/port" --threads 2 \
-  --log-level warn >"$WORK/daemon.log" 2>&1 &
+  --log-level warn ${DAEMON_ARGS:-} >"$WORK/daemon.log" 2>&1 &
 DAEMON_PID=$!
 for _ in $(seq 200); do [ -s "$WORK/port" ] && break; sleep 0.05; done
 URL="http://127.0.0.1:$(cat "$WORK/port")"
@@ -64,6 +65,15 @@ window_rate() {
   awk -v a="$a" -v b="$b" -v t0="$t0" -v t1="$t1" 'BEGIN { printf "%.3f", (b - a) / (t1 - t0) }'
 }
 
+# CPU seconds used so far by the server's threads at nice 0 (I/O, handlers, main), i.e. not
+# the study threads (nice --worker-nice, default 10). /proc/PID/task/TID/stat: field 14 utime,
+# 15 stime (clock ticks), 19 nice; the comm field has no spaces here.
+TICK=$(getconf CLK_TCK)
+http_cpu() {
+  cat /proc/"$DAEMON_PID"/task/*/stat 2>/dev/null |
+    awk -v tick="$TICK" '$19 == 0 { s += $14 + $15 } END { printf "%.3f", s / tick }'
+}
+
 sleep 3  # let the study reach steady state
 BEFORE=$(window_rate "$BASELINE")
 
@@ -72,10 +82,11 @@ if [ "$POLL_MS" -gt 0 ]; then
   echo "function delay() return $POLL_MS end" >"$WORK/poll.lua"
   WRK_SCRIPT=(-s "$WORK/poll.lua")
 fi
-A=$(done_runs); T0=$(date +%s.%N)
-wrk -t"$WRK_THREADS" -c"$CONNECTIONS" -d"${DURATION}s" --latency "${WRK_SCRIPT[@]}" \
-  "$URL/v1/studies/$ID" >"$WORK/wrk.txt" 2>&1
-B=$(done_runs); T1=$(date +%s.%N)
+A=$(done_runs); T0=$(date +%s.%N); C0=$(http_cpu)
+TIMEFORMAT='%U %S'
+{ time wrk -t"$WRK_THREADS" -c"$CONNECTIONS" -d"${DURATION}s" --latency "${WRK_SCRIPT[@]}" \
+  "$URL/v1/studies/$ID" >"$WORK/wrk.txt" 2>&1 ; } 2>"$WORK/wrk.time"
+B=$(done_runs); T1=$(date +%s.%N); C1=$(http_cpu)
 UNDER=$(awk -v a="$A" -v b="$B" -v t0="$T0" -v t1="$T1" 'BEGIN { printf "%.3f", (b - a) / (t1 - t0) }')
 
 AFTER=$(window_rate "$BASELINE")
@@ -98,3 +109,11 @@ awk -v b="$BEFORE" -v a="$AFTER" -v u="$UNDER" 'BEGIN {
   base = (b + a) / 2; if (base <= 0) { print "throughput drop:       n/a (no progress)"; exit }
   printf "throughput drop:       %.1f %% vs the mean of before/after   (target <= 10 %%)\n", 100 * (base - u) / base }'
 echo "study state at the end: $STATE"
+# The drop the API can cause at most: the CPU its threads and the load generator used during the
+# window, as a share of the 2 cores (independent of other users of the machine, unlike runs/s).
+WRK_CPU=$(awk '{ print $1 + $2 }' "$WORK/wrk.time")
+awk -v c0="$C0" -v c1="$C1" -v w="$WRK_CPU" -v t0="$T0" -v t1="$T1" -v n="$(nproc)" 'BEGIN {
+  cap = n * (t1 - t0)
+  printf "CPU during the window:  server HTTP threads %.2f s (%.1f %% of %d cores), wrk %.2f s (%.1f %%)\n",
+         c1 - c0, 100 * (c1 - c0) / cap, n, w, 100 * w / cap }'
+echo "machine load average:  $(cut -d' ' -f1-3 /proc/loadavg) (other users of the machine add noise to runs/s)"

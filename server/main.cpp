@@ -79,12 +79,18 @@ int main(int argc, char** argv) {
   app.add_option("--io-threads", net.io_threads, "I/O threads")->capture_default_str();
   app.add_option("--handler-threads", net.handler_threads, "request handler threads")
       ->capture_default_str();
+  int study_cache_ms = 100;
+  app.add_option("--study-cache-ms", study_cache_ms,
+                 "GET /v1/studies/{id} may answer from a cache this old [ms] (0 = off)")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 10000));
   app.add_option("--log-level", log_level, "trace, debug, info, warn, error")
       ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
 
   spdlog::set_level(spdlog::level::from_str(log_level));
   api.db = db;
+  api.study_cache_ttl = std::chrono::milliseconds(study_cache_ms);
   net.max_body_bytes = api.max_body_bytes;
   net.read_timeout = std::chrono::seconds(read_timeout_s);
   net.idle_timeout = std::chrono::seconds(idle_timeout_s);

@@ -352,15 +352,32 @@ Response Api::list_studies(const Request& r) const {
 
 Response Api::get_study(const Request& r, const std::string& id) const {
   if (!is_valid_id(id)) return unknown_study(id, r.path());
+  const auto ttl = options_.study_cache_ttl;
+  const auto now = std::chrono::steady_clock::now();
+  if (ttl.count() > 0) {
+    std::lock_guard lock(cache_mu_);
+    if (const auto it = study_cache_.find(id); it != study_cache_.end() && now - it->second.at < ttl)
+      return it->second.response;
+  }
   try {
     auto store = pool_.acquire();
     const auto rec = store->get_study(id);
     if (!rec) return unknown_study(id, r.path());
     Response resp = json_response(200, study_json(*rec, store->count_runs(id), true));
+    if (ttl.count() > 0) {
+      std::lock_guard lock(cache_mu_);
+      if (study_cache_.size() >= 1024) study_cache_.clear();  // bounded; entries are cheap
+      study_cache_[id] = {now, resp};
+    }
     return resp;
   } catch (const StoreError& e) {
     return store_failure(e, r.path());
   }
+}
+
+void Api::forget_cached(const std::string& id) const {
+  std::lock_guard lock(cache_mu_);
+  study_cache_.erase(id);
 }
 
 Response Api::cancel_study(const Request& r, const std::string& id) const {
@@ -370,6 +387,7 @@ Response Api::cancel_study(const Request& r, const std::string& id) const {
     auto store = pool_.acquire();
     const CancelOutcome outcome =
         scheduler_ != nullptr ? scheduler_->cancel(*store, id) : cancel_unclaimed(*store, id);
+    forget_cached(id);  // the canceller's next GET shows the new state
     if (outcome == CancelOutcome::kNotFound) return unknown_study(id, r.path());
     const auto rec = store->get_study(id);
     if (!rec) return unknown_study(id, r.path());

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <limits>
 #include <set>
+#include <thread>
 
 #include "stickslip/studies/map.h"
 #include "stickslip/studies/store.h"
@@ -393,6 +394,26 @@ TEST_F(ApiTest, CancelKeepsFinishedRunsAndIsIdempotent) {
   const std::string id2 = body_json(api.handle(post_json("/v1/studies", tiny_study())))["id"];
   studies::Store::open(dir_ / "api.db").set_study_state(id2, studies::StudyState::kSucceeded);
   expect_problem(api.handle(post_json("/v1/studies/" + id2 + ":cancel", "")), 409);
+}
+
+TEST_F(ApiTest, StudyCacheIsShortLivedAndForgetsACancelledStudy) {
+  ApiOptions o = options();
+  o.study_cache_ttl = std::chrono::milliseconds(300);
+  Api api(o);
+  const std::string id = body_json(api.handle(post_json("/v1/studies", tiny_study())))["id"];
+  EXPECT_EQ(body_json(api.handle(get("/v1/studies/" + id)))["progress"]["done"], 0);
+  {
+    auto writer = studies::RunWriter::open(dir_ / "api.db");
+    writer.add(make_run(id, 0, "dahl", 0));
+    writer.flush();
+  }
+  // Within the TTL the cached answer is served; after it, the store's.
+  EXPECT_EQ(body_json(api.handle(get("/v1/studies/" + id)))["progress"]["done"], 0);
+  std::this_thread::sleep_for(std::chrono::milliseconds(350));
+  EXPECT_EQ(body_json(api.handle(get("/v1/studies/" + id)))["progress"]["done"], 1);
+  // A cancel is visible at once.
+  EXPECT_EQ(api.handle(post_json("/v1/studies/" + id + ":cancel", "")).status, 200);
+  EXPECT_EQ(body_json(api.handle(get("/v1/studies/" + id)))["state"], "cancelled");
 }
 
 TEST_F(ApiTest, HealthAndMetricsReflectTheStore) {

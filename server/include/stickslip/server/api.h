@@ -16,7 +16,10 @@
 // a 5xx means the server or its store failed, never the request.
 
 #include <atomic>
+#include <chrono>
 #include <cstddef>
+#include <mutex>
+#include <unordered_map>
 #include <filesystem>
 #include <memory>
 #include <string>
@@ -38,6 +41,10 @@ struct ApiOptions {
   std::size_t default_runs_page_size = 100;
   std::size_t max_page_size = 1000;
   std::filesystem::path reports_dir;      ///< `stickslip report --out` directory; empty: none
+  /// GET /v1/studies/{id} answers from a per-study cache for this long (0: off). Progress is
+  /// committed in batches every 0.5 s anyway, so a poller sees nothing staler than that; 50
+  /// clients polling one study then cost one store read per period instead of one per request.
+  std::chrono::milliseconds study_cache_ttl{100};
 
   bool IsValid(std::string* why) const;
 };
@@ -79,6 +86,13 @@ class Api {
   mutable StorePool pool_;
   Router router_;
   mutable std::array<std::atomic<std::uint64_t>, 6> responses_{};
+  struct CachedStudy {
+    std::chrono::steady_clock::time_point at;
+    Response response;
+  };
+  mutable std::mutex cache_mu_;
+  mutable std::unordered_map<std::string, CachedStudy> study_cache_;
+  void forget_cached(const std::string& id) const;
 };
 
 /// The OpenAPI 3.1 document (schemas/openapi.json) embedded at build time.
