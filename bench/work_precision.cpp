@@ -2,14 +2,29 @@
 // integrator, per model, for the seed's still-base run (v_a = 0) and the v_a = 4 mm/s run.
 // The reference is event-locating RK4 (Karnopp, Reset Integrator) or plain RK4 (Dahl, LuGre)
 // at dt = 1e-7; errors are compared on the 2 kHz trace (identical sample times across runs).
+// Columns: accepted steps, rejected steps (adaptive), located switches, wall time of one
+// single-threaded run (run pinned, e.g. taskset -c 0, on a quiet machine).
 //
-// Usage: work_precision [--quick]   (--quick: 2 s + 2 s runs, reference dt = 5e-7)
+// Usage: work_precision [--quick] [--only MODEL[:V_A_MM_S]] [--ref-cache DIR] [--reps N] [--no-rk4]
+//                       [--rtols A,B,...]
+//   --quick      2 s + 2 s runs, reference dt = 5e-7
+//   --only       run only this model (and v_a in mm/s), e.g. --only lugre:4
+//   --ref-cache  store/load the reference traces in DIR (a reference takes ~30 s)
+//   --reps       time each run N times and report the fastest (shared machine)
+//   --no-rk4     skip the fixed-step RK4 rows (adaptive only)
+//   --rtols      comma-separated rtol values of the adaptive rows (atol = 10 rtol [N])
+// The cpu[s] column is the thread CPU time of the fastest repetition, which is less sensitive
+// than wall time to other load on the machine.
 #include <omp.h>
+#include <time.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
+#include <fstream>
 #include <string>
 #include <vector>
 
@@ -49,15 +64,70 @@ double rms_error(const SimResult& ref, const SimResult& r) {
   return std::sqrt(sum / static_cast<double>(n));
 }
 
+double thread_cpu_seconds() {
+  timespec ts{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
+}
+
+std::string cache_path(const std::string& dir, const Case& c, double stage_dur, double ref_dt) {
+  char buf[160];
+  std::snprintf(buf, sizeof buf, "/wp_%s_%g_%g_%g.bin", to_string(c.model), c.v_a * 1e3,
+                stage_dur, ref_dt);
+  return dir + buf;
+}
+
+// Reference traces are cached as raw TraceSample arrays (plus steps/switches).
+bool load_ref(const std::string& path, SimResult* r) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return false;
+  std::size_t n = 0;
+  in.read(reinterpret_cast<char*>(&n), sizeof n);
+  in.read(reinterpret_cast<char*>(&r->steps), sizeof r->steps);
+  in.read(reinterpret_cast<char*>(&r->switches), sizeof r->switches);
+  r->trace.resize(n);
+  in.read(reinterpret_cast<char*>(r->trace.data()),
+          static_cast<std::streamsize>(n * sizeof(TraceSample)));
+  return static_cast<bool>(in);
+}
+
+void save_ref(const std::string& path, const SimResult& r) {
+  std::ofstream out(path, std::ios::binary);
+  const std::size_t n = r.trace.size();
+  out.write(reinterpret_cast<const char*>(&n), sizeof n);
+  out.write(reinterpret_cast<const char*>(&r.steps), sizeof r.steps);
+  out.write(reinterpret_cast<const char*>(&r.switches), sizeof r.switches);
+  out.write(reinterpret_cast<const char*>(r.trace.data()),
+            static_cast<std::streamsize>(n * sizeof(TraceSample)));
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   bool quick = false;
+  std::string only, cache_dir;
+  int reps = 1;
+  bool rk4_rows = true;
+  std::vector<double> rtols = {1e-4, 1e-5, 1e-6, 1e-7, 1e-8};
   for (int i = 1; i < argc; ++i) {
     if (std::strcmp(argv[i], "--quick") == 0) {
       quick = true;
+    } else if (std::strcmp(argv[i], "--only") == 0 && i + 1 < argc) {
+      only = argv[++i];
+    } else if (std::strcmp(argv[i], "--ref-cache") == 0 && i + 1 < argc) {
+      cache_dir = argv[++i];
+    } else if (std::strcmp(argv[i], "--rtols") == 0 && i + 1 < argc) {
+      rtols.clear();
+      for (char* tok = std::strtok(argv[++i], ","); tok; tok = std::strtok(nullptr, ","))
+        rtols.push_back(std::atof(tok));
+    } else if (std::strcmp(argv[i], "--no-rk4") == 0) {
+      rk4_rows = false;
+    } else if (std::strcmp(argv[i], "--reps") == 0 && i + 1 < argc) {
+      reps = std::max(1, std::atoi(argv[++i]));
     } else {
-      std::fprintf(stderr, "usage: %s [--quick]\n", argv[0]);
+      std::fprintf(stderr,
+                   "usage: %s [--quick] [--only MODEL[:V_A_MM_S]] [--ref-cache DIR] [--reps N] [--no-rk4] [--rtols A,B,...]\n",
+                   argv[0]);
       return 2;
     }
   }
@@ -67,7 +137,21 @@ int main(int argc, char** argv) {
   std::vector<Case> cases;
   for (ModelKind m : {ModelKind::kDahl, ModelKind::kKarnopp, ModelKind::kResetIntegrator,
                       ModelKind::kLuGre})
-    for (double v_a : {0.0, 4e-3}) cases.push_back({m, v_a});
+    for (double v_a : {0.0, 4e-3}) {
+      if (!only.empty()) {
+        const std::string name = to_string(m);
+        const auto colon = only.find(':');
+        if (only.substr(0, colon) != name) continue;
+        if (colon != std::string::npos && std::atof(only.c_str() + colon + 1) * 1e-3 != v_a)
+          continue;
+      }
+      cases.push_back({m, v_a});
+    }
+  if (cases.empty()) {
+    std::fprintf(stderr, "--only %s: no such model/v_a (models: dahl, karnopp, "
+                 "reset_integrator, lugre; v_a: 0 or 4)\n", only.c_str());
+    return 2;
+  }
 
   // References, in parallel over the cases.
   std::vector<SimResult> refs(cases.size());
@@ -81,38 +165,49 @@ int main(int argc, char** argv) {
                        cases[i].model == ModelKind::kResetIntegrator;
     cfg.integrator.kind = event ? IntegratorKind::kRk4Event : IntegratorKind::kRk4;
     cfg.integrator.dt = ref_dt;
+    const std::string path =
+        cache_dir.empty() ? std::string() : cache_path(cache_dir, cases[i], stage_dur, ref_dt);
+    if (!path.empty() && load_ref(path, &refs[i])) continue;
     const auto t0 = std::chrono::steady_clock::now();
     refs[i] = simulate(cfg);
     ref_wall[i] = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    if (!path.empty() && refs[i].status == RunStatus::kOk) save_ref(path, refs[i]);
   }
 
   std::printf("# work-precision: %s runs (%g s + %g s), reference dt = %g, trace %g Hz\n",
               quick ? "quick" : "full", stage_dur, stage_dur, ref_dt, kTraceRate);
-  std::printf("%-17s %8s %-10s %-12s %11s %9s %16s %s\n", "model", "v_a[mm/s]", "integrator",
-              "setting", "steps", "wall[s]", "F_d_RMS_err[N]", "status");
+  std::printf("%-17s %8s %-10s %-12s %11s %9s %9s %9s %9s %16s %s\n", "model", "v_a[mm/s]",
+              "integrator", "setting", "steps", "rejected", "switches", "wall[s]", "cpu[s]",
+              "F_d_RMS_err[N]", "status");
 
   auto row = [](const Case& c, const char* integ, const std::string& setting,
-                const SimResult& r, double wall, double err) {
+                const SimResult& r, double wall, double cpu, double err) {
     char errbuf[32];
     if (std::isnan(err))
       std::snprintf(errbuf, sizeof errbuf, "-");
     else
       std::snprintf(errbuf, sizeof errbuf, "%.3e", err);
-    std::printf("%-17s %8.1f %-10s %-12s %11zu %9.3f %16s %s\n", to_string(c.model),
-                c.v_a * 1e3, integ, setting.c_str(), r.steps, wall, errbuf,
-                to_string(r.status));
+    std::printf("%-17s %8.1f %-10s %-12s %11zu %9zu %9zu %9.3f %9.3f %16s %s\n",
+                to_string(c.model), c.v_a * 1e3, integ, setting.c_str(), r.steps, r.rejected,
+                r.switches, wall, cpu, errbuf, to_string(r.status));
     std::fflush(stdout);
   };
   // Times one single-threaded run of cfg and prints its row against the reference.
-  auto timed_row = [&row](const Case& c, const char* integ, const char* knob, double value,
-                          const SimConfig& cfg, const SimResult& ref) {
-    const auto t0 = std::chrono::steady_clock::now();
-    const SimResult r = simulate(cfg);
-    const double wall =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  auto timed_row = [&row, reps](const Case& c, const char* integ, const char* knob,
+                                double value, const SimConfig& cfg, const SimResult& ref) {
+    SimResult r;
+    double wall = 1e300, cpu = 1e300;
+    for (int k = 0; k < reps; ++k) {
+      const double c0 = thread_cpu_seconds();
+      const auto t0 = std::chrono::steady_clock::now();
+      r = simulate(cfg);
+      wall = std::min(
+          wall, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+      cpu = std::min(cpu, thread_cpu_seconds() - c0);
+    }
     char s[32];
     std::snprintf(s, sizeof s, "%s=%g", knob, value);
-    row(c, integ, s, r, wall, rms_error(ref, r));
+    row(c, integ, s, r, wall, cpu, rms_error(ref, r));
   };
 
   for (std::size_t i = 0; i < cases.size(); ++i) {
@@ -122,15 +217,16 @@ int main(int argc, char** argv) {
       char s[32];
       std::snprintf(s, sizeof s, "dt=%g", ref_dt);
       const bool event = c.model == ModelKind::kKarnopp || c.model == ModelKind::kResetIntegrator;
-      row(c, event ? "ref_rk4ev" : "ref_rk4", s, ref, ref_wall[i], std::nan(""));
+      row(c, event ? "ref_rk4ev" : "ref_rk4", s, ref, ref_wall[i], std::nan(""), std::nan(""));
     }
     for (double dt : {4e-6, 2e-6, 1e-6}) {
+      if (!rk4_rows) break;
       SimConfig cfg = make_cfg(c, stage_dur);
       cfg.integrator.kind = IntegratorKind::kRk4;
       cfg.integrator.dt = dt;
       timed_row(c, "rk4", "dt", dt, cfg, ref);
     }
-    for (double rtol : {1e-5, 1e-6, 1e-7, 1e-8}) {
+    for (double rtol : rtols) {
       SimConfig cfg = make_cfg(c, stage_dur);
       cfg.integrator.kind = IntegratorKind::kAdaptive;
       cfg.integrator.rtol = rtol;

@@ -16,6 +16,7 @@ PACKAGES=(
   libspdlog-dev            # logging
   libnlopt-cxx-dev         # derivative-free optimisation
   gnuplot-nox              # report plots
+  python3                  # report tests: html.parser/xml.dom check of the page (stdlib only)
   curl                     # end-to-end tests drive the server with curl
   wrk                      # HTTP load benchmark
 )

@@ -58,6 +58,8 @@ int main(int argc, char** argv) {
                  "bearer token required on state-changing endpoints (default: $STICKSLIP_TOKEN; "
                  "none: no authentication)")
       ->envname("STICKSLIP_TOKEN");
+  app.add_option("--reports", api.reports_dir,
+                 "directory of `stickslip report --out` reports, served at /v1/reports");
   app.add_option("--workers", work.concurrency, "studies run at once")->capture_default_str();
   app.add_option("--threads", work.threads, "OpenMP threads per study (0 = all cores)")
       ->capture_default_str();

@@ -10,10 +10,14 @@ int run(int argc, char** argv) {
   app.require_subcommand(1);
   int exit_code = kOk;
   add_simulate_command(app, exit_code);
+  add_synth_command(app, exit_code);
+  add_diagnose_command(app, exit_code);
   add_table_command(app, exit_code);
   add_study_command(app, exit_code);
   add_remote_commands(app, exit_code);
   add_map_command(app, exit_code);
+  add_indices_command(app, exit_code);
+  add_report_command(app, exit_code);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {

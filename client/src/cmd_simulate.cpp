@@ -15,6 +15,8 @@ struct SimulateArgs {
   std::string integrator = "adaptive";
   std::string trace_file;
   double trace_rate = 2000.0;
+  std::string effect = "none";
+  std::vector<std::string> effect_params;  // "name=value"
   std::map<std::string, std::optional<double>> values;  // parameter name -> value if given
 };
 
@@ -62,6 +64,7 @@ int run_simulate(SimulateArgs& a) {
       if (auto& v = a.values[first]) set_parameter(cfg, first, *v);
     for (auto& [name, v] : a.values)
       if (v && name != "t_on" && name != "duration") set_parameter(cfg, name, *v);
+    apply_effect_options(a.effect, a.effect_params, cfg);
     if (!a.trace_file.empty()) {
       if (!(std::isfinite(a.trace_rate) && a.trace_rate > 0))
         throw InvalidParameter("trace-rate", a.trace_rate, "must be a finite number > 0");
@@ -102,6 +105,7 @@ void add_simulate_command(CLI::App& app, int& exit_code) {
       ->check(CLI::IsMember({"rk4", "rk4_event", "adaptive"}))
       ->capture_default_str();
   for (const Flag& f : kFlags) cmd->add_option(f.flag, args->values[f.param], f.help);
+  add_effect_options(*cmd, args->effect, args->effect_params);
   cmd->add_option("--trace", args->trace_file, "write a decimated CSV trace t,F_d,F_f,x,v,s");
   cmd->add_option("--trace-rate", args->trace_rate, "trace samples per second [Hz]")
       ->capture_default_str();

@@ -135,6 +135,18 @@ StepOut dp5_step(const Sys& sys, const Plant& p, double t, const State& y, const
   return {y_new, kd[6], err};
 }
 
+// PI step-size controller exponents for the order-5 error estimate: Hairer's dopri5 values
+// (beta = 0.04, alpha = 1/5 - 0.75 beta). Measured on the 20 s LuGre seed runs against plain
+// I-control (beta = 0): beta = 0.04 removes ~40 % of the rejected steps and gives 1.4x smaller
+// F_d errors for the same work at v_a = 4 mm/s; beta = 0.08 is slightly better still in error per
+// step but takes 20 % more steps at a given rtol; beta = 0.13 stalls (tiny steps).
+constexpr double kBeta = 0.04;
+// lambda h below which the step is plain Dormand-Prince (the method's stability interval on the
+// negative real axis reaches ~3.3). Measured on the 20 s LuGre runs (still, 4 mm/s): 1.5-5 all
+// give ~2e-6 N at rtol 1e-6; 3 takes the fewest steps on the still base.
+constexpr double kLawsonMin = 3.0;
+constexpr double kAlpha = 0.2 - 0.75 * kBeta;
+
 template <class Sys>
 void adaptive(RunContext& ctx, const Sys& sys, const ErrorScale& es) {
   const IntegratorOptions& opt = ctx.cfg.integrator;
@@ -150,6 +162,8 @@ void adaptive(RunContext& ctx, const Sys& sys, const ErrorScale& es) {
     };
     record(t, k1);
     int zero_switches = 0;
+    double err_prev = 1e-4;     // PI controller memory (Hairer's initial value)
+    bool rejected_last = false;
     while (t < t1) {
       if (static_cast<double>(ctx.result.steps + ctx.result.rejected) > opt.max_steps) {
         ctx.result.status = RunStatus::kDiverged;
@@ -159,12 +173,20 @@ void adaptive(RunContext& ctx, const Sys& sys, const ErrorScale& es) {
       }
       const bool last = t + h >= t1 * (1.0 - 1e-15) - 1e-15;
       const double hh = last ? t1 - t : h;
+      // Integrating factor only where the bristle equation is stiff for this step. Where
+      // lambda h < kLawsonMin plain Dormand-Prince is stable, and far more accurate: the
+      // Lawson scheme is exact only for a constant lambda, and lambda ~ |v_r| sweeps from 0 to
+      // ~4e4 1/s within a step around every zero of v_r under vibration. Always-on, it left a
+      // systematic error per v_r crossing that the error estimate did not see: 7.7e-4 N RMS at
+      // rtol 1e-6 on the 20 s LuGre run at v_a = 4 mm/s, 2e-6 N with this rule (same work).
       // Keep exp(-L h) well inside double range; never binding for physical parameters.
-      const double L = std::min(sys.lambda(p, t, y), 600.0 / hh);
+      double L = std::min(sys.lambda(p, t, y), 600.0 / hh);
+      if (L * hh < kLawsonMin) L = 0.0;
       StepOut out = dp5_step(sys, p, t, y, k1, hh, mode, L, es);
       if (!(out.err <= 1.0)) {  // also catches NaN
         ++ctx.result.rejected;
-        const double fac = std::isfinite(out.err) ? 0.9 * std::pow(out.err, -0.2) : 0.1;
+        rejected_last = true;
+        const double fac = std::isfinite(out.err) ? 0.9 * std::pow(out.err, -kAlpha) : 0.1;
         h = hh * std::clamp(fac, 0.1, 0.9);
         if (h < 1e-14 * std::max(1.0, t)) {
           fail_diverged(ctx, t, y, p.base_velocity(t), h);
@@ -204,14 +226,21 @@ void adaptive(RunContext& ctx, const Sys& sys, const ErrorScale& es) {
       y = out.y;
       t = t_new;
       k1 = out.k_end;
+      if (after_step(p, t, y)) k1 = sys.eval(p, t, y, mode);  // dwell_time's clock restarted
       ++ctx.result.steps;
       if (!ctx.guard.ok(y)) {
         fail_diverged(ctx, t, y, p.base_velocity(t), hh);
         return false;
       }
       record(t, k1);
-      const double fac = out.err > 0 ? 0.9 * std::pow(out.err, -0.2) : 5.0;
-      h = std::min(hh * std::clamp(fac, 0.2, 5.0), opt.dt_max);
+      // PI step-size control (Gustafsson 1991; Hairer, Norsett & Wanner, Solving ODEs I,
+      // IV.2 / dopri5): h_new = h 0.9 err^-alpha err_prev^beta, no growth right after a rejection.
+      const double err = std::max(out.err, 1e-10);
+      double fac = 0.9 * std::pow(err, -kAlpha) * std::pow(err_prev, kBeta);
+      fac = std::clamp(fac, 0.2, rejected_last ? 1.0 : 5.0);
+      err_prev = std::max(err, 1e-4);
+      rejected_last = false;
+      h = std::min(hh * fac, opt.dt_max);
       if (last) t = t1;
     }
     return true;

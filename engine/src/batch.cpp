@@ -1,5 +1,6 @@
 // Batched mode: compatibility checks, per-lane validation, and chunking into SIMD kernels.
 #include "stickslip/engine/batch.h"
+#include "stickslip/engine/extensions.h"
 
 #include <cstdio>
 #include <optional>
@@ -35,6 +36,11 @@ std::optional<InvalidParameter> incompatibility(const std::vector<SimConfig>& cf
       return InvalidParameter("trace.rate", c.trace.rate,
                               "lane " + std::to_string(i) +
                                   ": batch mode records no traces (use simulate())");
+    if (c.extension.active())
+      return InvalidParameter("effect", to_string(c.extension.kind),
+                              "lane " + std::to_string(i) +
+                                  ": batch mode runs the base models only, without a catalogue "
+                                  "extension (use simulate())");
     if (!ref_index) {
       ref_index = i;
       continue;

@@ -14,6 +14,12 @@ struct DahlLinear {
     return {d.k_t * s, v_r * one_minus};
   }
 };
+// rhs() names eval_ext for extensions; batches never carry one (batch_compatible rejects them),
+// but the template must still compile: forward to Dahl's.
+inline FrictionEval eval_ext(const DahlLinear& m, const ExtRuntime& r, const Mod& mod, double v_r,
+                             double s, double F_d) noexcept {
+  return eval_ext(m.d, r, mod, v_r, s, F_d);
+}
 
 }  // namespace
 

@@ -192,6 +192,8 @@ bool SimConfig::IsValid(std::vector<std::string>* errors) const {
     fail("dt = " + fmt(in.dt) + ": needs more than max_steps = " + fmt(in.max_steps) + " steps");
   if (!std::isfinite(in.atol) || !(in.atol > 0))
     fail("atol = " + fmt(in.atol) + ": must be a finite number > 0");
+  // x_max: sliding distance of the run, about v_d times its duration [m].
+  if (!extension.IsValid(errors, drive.v_d * total_duration())) ok = false;
   if (std::isfinite(trace.rate) ? trace.rate < 0 : true)
     fail("trace_rate = " + fmt(trace.rate) + ": must be a finite number >= 0");
   return ok;
@@ -214,6 +216,7 @@ void set_parameter(SimConfig& cfg, std::string_view name, double value) {
       return;
     }
   }
+  if (set_extension_parameter(cfg.extension, name, value)) return;
   if (name == "v_a") {
     check_domain(name, value, Domain::kNonNegative);
     if (cfg.stages.size() < 2)
@@ -280,6 +283,7 @@ double get_parameter(const SimConfig& cfg_in, std::string_view name) {
   SimConfig& cfg = const_cast<SimConfig&>(cfg_in);  // fields() hands out mutable refs; we only read
   for (const auto& f : fields())
     if (name == f.name) return f.ref(cfg);
+  if (double v = 0; get_extension_parameter(cfg.extension, name, &v)) return v;
   if (name == "v_a") return cfg.stages.size() > 1 ? cfg.stages.back().v_a : 0.0;
   if (name == "f") return cfg.stages.empty() ? 0.0 : cfg.stages.back().f;
   if (name == "t_on") return cfg.stages.size() > 1 ? cfg.stages[0].duration : cfg.total_duration();
@@ -301,7 +305,12 @@ std::vector<std::string> parameter_names() {
   for (int i = 1; i <= 2; ++i)
     for (const char* n : {"duration", "v_a", "f"})
       out.push_back("stage" + std::to_string(i) + "." + n);
+  for (auto& n : all_extension_parameter_names()) out.push_back(std::move(n));
   return out;
+}
+
+void set_extension(SimConfig& cfg, std::string_view effect) {
+  cfg.extension.kind = extension_from_string(effect);
 }
 
 }  // namespace stickslip

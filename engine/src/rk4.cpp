@@ -24,6 +24,7 @@ void rk4_plain(RunContext& ctx, const Model& model, State& y) {
                                       p.v_a * ph.c_half(), p.v_a * ph.c_full());
       acc.sample(t, k1.F_d, k1.F_f);
       if (ctx.trace.active()) ctx.trace.add({t, k1.F_d, k1.F_f, y0.x, y0.v, y0.s});
+      after_step(p, t + h, y);
       if (!ctx.guard.ok(y)) {
         fail_diverged(ctx, t + h, y, p.v_a * ph.c_full(), h);
         return false;
@@ -125,6 +126,7 @@ void rk4_event(RunContext& ctx, const H& hyb, State& y) {
         ++ctx.result.switches;
       }
       t = t_next;
+      after_step(p, t, y);
       if (!ctx.guard.ok(y)) {
         fail_diverged(ctx, t, y, p.base_velocity(t), h);
         return false;

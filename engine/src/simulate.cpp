@@ -74,6 +74,12 @@ SimResult simulate(const SimConfig& cfg) {
   }
   detail::RunContext ctx{cfg, r, detail::TraceRecorder(cfg.trace.rate, &r.trace),
                          detail::make_guard(cfg)};
+  if (cfg.extension.active()) {
+    ctx.ext = detail::ExtRuntime(cfg.extension);
+    if (cfg.extension.kind == ExtensionKind::kSensorDynamics)
+      ctx.trace.set_sensor(
+          detail::SensorFilter(cfg.extension.sensor_tau, cfg.extension.sensor_zeta));
+  }
   if (cfg.trace.rate > 0)
     r.trace.reserve(static_cast<std::size_t>(cfg.total_duration() * cfg.trace.rate) + 2);
   try {
@@ -101,6 +107,12 @@ std::string summary_json(const SimConfig& cfg, const SimResult& r, int indent) {
   j["model"] = to_string(cfg.model);
   j["integrator"] = to_string(cfg.integrator.kind);
   j["status"] = to_string(r.status);
+  if (cfg.extension.active()) {
+    auto& e = j["effect"];
+    e["id"] = to_string(cfg.extension.kind);
+    for (const auto& n : extension_parameter_names(cfg.extension.kind))
+      e["params"][n] = finite_or_null(get_parameter(cfg, n));
+  }
   if (!r.reason.empty()) j["reason"] = r.reason;
   j["t_end"] = finite_or_null(r.t_end);
   j["steps"] = r.steps;

@@ -8,6 +8,7 @@
 #include "stickslip/engine/metrics.h"
 #include "stickslip/engine/models.h"
 #include "stickslip/engine/simulate.h"
+#include "extended.h"
 
 namespace stickslip::detail {
 
@@ -22,12 +23,15 @@ struct Point {
   double F_d;        ///< drive force [N]
   double v_r;        ///< relative velocity [m/s]
   double a_b = 0.0;  ///< base acceleration u'' [m/s^2]
+  Mod mod{};          ///< extension: friction level and static-friction increase
+  double sigma2 = 0.0;  ///< extension: viscous coefficient [N s/m]
 };
 
 /// Body, drive and the current stage's base motion. u'(t) = v_a cos(w (t - t0)).
 struct Plant {
   double m_inv, k_d, v_d;
   double v_a = 0.0, w = 0.0, t0 = 0.0;
+  ExtRuntime* ext = nullptr;  ///< catalogue extension (nullptr: the base model)
   double base_velocity(double t) const noexcept {
     return v_a == 0.0 ? 0.0 : v_a * std::cos(w * (t - t0));
   }
@@ -35,7 +39,13 @@ struct Plant {
     return v_a == 0.0 ? 0.0 : -v_a * w * std::sin(w * (t - t0));
   }
   Point point(double t, double x, double v) const noexcept {
+    if (ext) [[unlikely]]
+      return {drive_force(t, x) + ext->c_d * (v_d - v), v - base_velocity(t), base_accel(t),
+              modulation(t, x), ext->sigma2};
     return {drive_force(t, x), v - base_velocity(t), base_accel(t)};
+  }
+  Mod modulation(double t, double x) const noexcept {
+    return ext ? ext->modulation(t, x, v_a, w, t0) : Mod{};
   }
   double drive_force(double t, double x) const noexcept { return k_d * fmadd(v_d, t, -x); }
 };
@@ -49,9 +59,25 @@ struct Deriv {
 template <class Model>
 inline Deriv rhs(const Model& model, const Plant& p, double t, const State& y,
                  double ub) noexcept {
+  if (p.ext) [[unlikely]] {
+    const double F_d = p.drive_force(t, y.x) + p.ext->c_d * (p.v_d - y.v);
+    const FrictionEval fe = eval_ext(model, *p.ext, p.modulation(t, y.x), y.v - ub, y.s, F_d);
+    return {{y.v, (F_d - fe.F_f) * p.m_inv, fe.ds}, F_d, fe.F_f};
+  }
   const double F_d = p.drive_force(t, y.x);
   const FrictionEval fe = model(y.v - ub, y.s, F_d);
   return {{y.v, (F_d - fe.F_f) * p.m_inv, fe.ds}, F_d, fe.F_f};
+}
+
+/// After every accepted step: the dwell_time extension's stick clock restarts while slipping.
+/// Returns true when the friction law changed at t (so a cached derivative at t is stale).
+inline bool after_step(const Plant& p, double t, const State& y) noexcept {
+  if (p.ext && p.ext->tracks_stick() && std::fabs(y.v - p.base_velocity(t)) > p.ext->e.dwell_v) {
+    const bool changed = p.ext->e.dwell_A != 0.0 && t > p.ext->t_slip;
+    p.ext->t_slip = t;
+    return changed;
+  }
+  return false;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -77,22 +103,30 @@ struct KarnoppHybrid {
     if (p.v_r < -m.DV) return Mode::kSlipNeg;
     return band_mode(p);
   }
+  /// Static and slip friction at this point (the Table 1 values unless an extension modulates
+  /// them; slip friction includes the viscous extension's sigma2 |v_r|) [N].
+  double FS(const Point& p) const noexcept { return p.mod.level * (m.F_S + p.mod.dFS); }
+  double Fslip(const Point& p) const noexcept {
+    return p.mod.level * m.F_slip + p.sigma2 * std::fabs(p.v_r);
+  }
   Mode band_mode(const Point& p) const noexcept {
-    if (p.F_d > m.F_S) return Mode::kSatPos;
-    if (p.F_d < -m.F_S) return Mode::kSatNeg;
+    const double F_S = FS(p);
+    if (p.F_d > F_S) return Mode::kSatPos;
+    if (p.F_d < -F_S) return Mode::kSatNeg;
     return Mode::kStick;
   }
   /// Body acceleration inside the band [m/s^2].
   double band_accel(const Point& p) const noexcept {
-    return (p.F_d - std::fmin(std::fmax(p.F_d, -m.F_S), m.F_S)) / mass;
+    const double F_S = FS(p);
+    return (p.F_d - std::fmin(std::fmax(p.F_d, -F_S), F_S)) / mass;
   }
   FrictionEval eval(Mode mode, const Point& p, double /*s*/) const noexcept {
     switch (mode) {
-      case Mode::kSlipPos: return {m.F_slip, 0.0};
-      case Mode::kSlipNeg: return {-m.F_slip, 0.0};
+      case Mode::kSlipPos: return {Fslip(p), 0.0};
+      case Mode::kSlipNeg: return {-Fslip(p), 0.0};
       case Mode::kStick: return {p.F_d, 0.0};
-      case Mode::kSatPos: return {m.F_S, 0.0};
-      case Mode::kSatNeg: return {-m.F_S, 0.0};
+      case Mode::kSatPos: return {FS(p), 0.0};
+      case Mode::kSatNeg: return {-FS(p), 0.0};
       case Mode::kEdgePos:
       case Mode::kEdgeNeg: return {p.F_d - mass * p.a_b, 0.0};
     }
@@ -102,6 +136,7 @@ struct KarnoppHybrid {
   double event(Mode mode, const Point& p, double /*s*/, Mode* next) const noexcept {
     const double up = m.DV - p.v_r;     // leaves the band upwards when < 0
     const double down = p.v_r + m.DV;  // leaves the band downwards when < 0
+    const double F_S = FS(p), F_slip = Fslip(p);
     double e = 1e300;
     auto take = [&](double value, Mode to) {
       if (value < e) { e = value; *next = to; }
@@ -110,28 +145,28 @@ struct KarnoppHybrid {
       case Mode::kSlipPos: take(-up, Mode::kStick); break;    // v_r falls to DV
       case Mode::kSlipNeg: take(-down, Mode::kStick); break;  // v_r rises to -DV
       case Mode::kStick:
-        take(m.F_S - p.F_d, Mode::kSatPos);
-        take(p.F_d + m.F_S, Mode::kSatNeg);
+        take(F_S - p.F_d, Mode::kSatPos);
+        take(p.F_d + F_S, Mode::kSatNeg);
         take(up, Mode::kSlipPos);
         take(down, Mode::kSlipNeg);
         break;
       case Mode::kSatPos:
-        take(p.F_d - m.F_S, Mode::kStick);
+        take(p.F_d - F_S, Mode::kStick);
         take(up, Mode::kSlipPos);
         take(down, Mode::kSlipNeg);
         break;
       case Mode::kSatNeg:
-        take(-m.F_S - p.F_d, Mode::kStick);
+        take(-F_S - p.F_d, Mode::kStick);
         take(up, Mode::kSlipPos);
         take(down, Mode::kSlipNeg);
         break;
       case Mode::kEdgePos:  // needs band side pushing up and slip side pushing down
         take(band_accel(p) - p.a_b, Mode::kStick);
-        take(p.a_b - (p.F_d - m.F_slip) / mass, Mode::kSlipPos);
+        take(p.a_b - (p.F_d - F_slip) / mass, Mode::kSlipPos);
         break;
       case Mode::kEdgeNeg:
         take(p.a_b - band_accel(p), Mode::kStick);
-        take((p.F_d + m.F_slip) / mass - p.a_b, Mode::kSlipNeg);
+        take((p.F_d + F_slip) / mass - p.a_b, Mode::kSlipNeg);
         break;
     }
     return e;
@@ -147,12 +182,12 @@ struct KarnoppHybrid {
         if (from == Mode::kSlipNeg && band_flow < 0) return Mode::kEdgeNeg;
         return band_mode(p);
       case Mode::kSlipPos: {  // at v_r = +DV, leaving the band or an edge upwards
-        if ((p.F_d - m.F_slip) / mass - p.a_b >= 0) return to;  // slip side moves away
+        if ((p.F_d - Fslip(p)) / mass - p.a_b >= 0) return to;  // slip side moves away
         if (from != Mode::kEdgePos && band_flow > 0) return Mode::kEdgePos;
         return band_mode(p);  // both sides flow back into the band
       }
       case Mode::kSlipNeg: {
-        if ((p.F_d + m.F_slip) / mass - p.a_b <= 0) return to;
+        if ((p.F_d + Fslip(p)) / mass - p.a_b <= 0) return to;
         if (from != Mode::kEdgeNeg && band_flow < 0) return Mode::kEdgeNeg;
         return band_mode(p);
       }
@@ -181,10 +216,26 @@ struct ResetHybrid {
     return Mode::kStick;
   }
   FrictionEval eval(Mode mode, const Point& p, double s) const noexcept {
+    if (p.mod.level != 1.0 || p.mod.dFS != 0.0 || p.sigma2 != 0.0) [[unlikely]]
+      return eval_extended(mode, p, s);
     switch (mode) {
       case Mode::kStick: return {(1.0 + m.alpha) * m.k_t * s + m.beta * p.v_r, p.v_r};
       case Mode::kSlidePos: return {m.k_t * m.s0, 0.0};
       case Mode::kSlideNeg: return {-m.k_t * m.s0, 0.0};
+    }
+    return {0.0, 0.0};
+  }
+  /// With an extension: the contact force scaled by the friction level, the stiction gain
+  /// raised by dFS / (k_t s0) (breakaway force + dFS), plus sigma2 v_r.
+  FrictionEval eval_extended(Mode mode, const Point& p, double s) const noexcept {
+    const double visc = p.sigma2 * p.v_r;
+    switch (mode) {
+      case Mode::kStick: {
+        const double a = m.alpha + p.mod.dFS / (m.k_t * m.s0);
+        return {p.mod.level * ((1.0 + a) * m.k_t * s + m.beta * p.v_r) + visc, p.v_r};
+      }
+      case Mode::kSlidePos: return {p.mod.level * m.k_t * m.s0 + visc, 0.0};
+      case Mode::kSlideNeg: return {-p.mod.level * m.k_t * m.s0 + visc, 0.0};
     }
     return {0.0, 0.0};
   }
@@ -224,8 +275,11 @@ class TraceRecorder {
     if (rate > 0) period_ = 1.0 / rate;
   }
   bool active() const noexcept { return period_ > 0; }
-  void add(const TraceSample& now) {
+  /// sensor_dynamics: the trace's F_d becomes the sensor's output (see extensions.h).
+  void set_sensor(const SensorFilter& f) { sensor_ = f; }
+  void add(TraceSample now) {
     if (period_ <= 0) return;
+    if (sensor_.active()) now.F_d = sensor_.step(now.t, now.F_d);
     if (!have_prev_) {
       prev_ = now;
       have_prev_ = true;
@@ -254,6 +308,7 @@ class TraceRecorder {
   std::size_t count_ = 0;
   bool have_prev_ = false;
   TraceSample prev_{};
+  SensorFilter sensor_;
 };
 
 /// What an integrator needs for one run: stage loop bookkeeping is shared by all of them.
@@ -262,6 +317,7 @@ struct RunContext {
   SimResult& result;
   TraceRecorder trace;
   DivergenceGuard guard;
+  ExtRuntime ext{};  ///< catalogue extension state (kind none: the base model)
 };
 
 /// The divergence limits simulate() uses for cfg.
@@ -319,6 +375,7 @@ inline Plant make_plant(const SimConfig& cfg) {
 template <class IntegrateStage>
 void drive_stages(RunContext& ctx, const State& y, IntegrateStage&& integrate_stage) {
   Plant plant = make_plant(ctx.cfg);
+  if (ctx.ext.kind != ExtensionKind::kNone) plant.ext = &ctx.ext;
   double t0 = 0.0;
   for (const Stage& st : ctx.cfg.stages) {
     const double t1 = t0 + st.duration;

@@ -157,8 +157,20 @@ Api::Api(ApiOptions options, Scheduler* scheduler)
               [this, id_of](const Request& r, const PathParams& p) {
                 return cancel_study(r, id_of(p));
               });
-  // Hooks for the sensitivity issue (GET /v1/studies/{id}/indices) and the nightly reports
-  // (GET /v1/reports): add the routes here and their paths to schemas/openapi.json.
+  router_.add("GET", "/v1/studies/{id}/indices",
+              [this, id_of](const Request& r, const PathParams& p) {
+                return get_indices(r, id_of(p));
+              });
+  router_.add("GET", "/v1/reports",
+              [this](const Request& r, const PathParams&) { return list_reports(r); });
+  router_.add("GET", "/v1/reports/{date}/{file}",
+              [this](const Request& r, const PathParams& p) {
+                return get_report_file(r, p.at("date"), "", p.at("file"));
+              });
+  router_.add("GET", "/v1/reports/{date}/plots/{file}",
+              [this](const Request& r, const PathParams& p) {
+                return get_report_file(r, p.at("date"), "plots", p.at("file"));
+              });
   router_.add("GET", "/healthz", [this](const Request& r, const PathParams&) { return healthz(r); });
   router_.add("GET", "/metrics", [this](const Request& r, const PathParams&) { return metrics(r); });
   router_.add("GET", "/v1/openapi.json",

@@ -8,6 +8,7 @@
 #include <string>
 
 #include "stickslip/engine/batch.h"
+#include "stickslip/engine/extensions.h"
 #include "stickslip/engine/exp.h"
 #include "stickslip/engine/simulate.h"
 
@@ -205,6 +206,10 @@ TEST(Batch, IncompatibleBatchNamesTheField) {
   c = base;
   c.trace.rate = 100.0;
   expect_field(c, "trace.rate", "100");
+  c = base;  // catalogue extensions run through simulate() only
+  c.extension.kind = ExtensionKind::kViscous;
+  c.extension.sigma2 = 30.0;
+  expect_field(c, "effect", "viscous");
   // Parameters that only change a lane's own dynamics are fine.
   c = base;
   c.friction.F_S = 10.0;

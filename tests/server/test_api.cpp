@@ -105,7 +105,7 @@ TEST_F(ApiTest, DeeplyNestedJsonIsA400NotAStackOverflow) {
 
 TEST_F(ApiTest, OddBodiesAreAll4xx) {
   Api api(options());
-  for (const std::string body :
+  for (const std::string& body :
        {std::string(""), std::string("[]"), std::string("null"), std::string("\"x\""),
         std::string("1e999999"), std::string("{\"name\": \"\xff\xfe\"}"),
         std::string(R"({"name": "x", "name": "y"})"),

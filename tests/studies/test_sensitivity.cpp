@@ -253,6 +253,24 @@ TEST(SobolIndices, ConstantOutputGivesZeros) {
   }
 }
 
+// Adding a constant to the output changes no index, and must not widen the intervals either:
+// the first-order estimator centres f(B), so its variance does not grow with the output's mean
+// (uncentred, an offset of 100 on Ishigami widens the S1 intervals by more than 10x).
+TEST(SobolIndices, OffsetOutputKeepsIndicesAndIntervalWidths) {
+  constexpr std::size_t n = 1024, d = 3;
+  const auto y = evaluate(ss::saltelli_design(n, d, 21), ishigami_unit);
+  std::vector<double> shifted = y;
+  for (double& v : shifted) v += 100.0;
+  const auto a = ss::sobol_indices(y, n, d, 0.95, 500, 3);
+  const auto b = ss::sobol_indices(shifted, n, d, 0.95, 500, 3);
+  for (std::size_t i = 0; i < d; ++i) {
+    EXPECT_NEAR(b.S1[i], a.S1[i], 1e-9) << "S1 x" << i + 1;
+    EXPECT_NEAR(b.ST[i], a.ST[i], 1e-9) << "ST x" << i + 1;
+    const double wa = a.S1_ci[i].hi - a.S1_ci[i].lo, wb = b.S1_ci[i].hi - b.S1_ci[i].lo;
+    EXPECT_NEAR(wb, wa, 1e-6 + 1e-6 * wa) << "S1 interval of x" << i + 1;
+  }
+}
+
 TEST(SobolIndices, InvalidArgumentsThrow) {
   const std::vector<double> y(4 * 5, 1.0);
   EXPECT_THROW(ss::sobol_indices(y, 4, 4), std::invalid_argument);  // size mismatch

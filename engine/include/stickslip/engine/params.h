@@ -21,6 +21,8 @@
 #include <string_view>
 #include <vector>
 
+#include "stickslip/engine/extensions.h"
+
 namespace stickslip {
 
 /// Error for a bad user-supplied value. what() names the field and the value.
@@ -112,6 +114,7 @@ struct SimConfig {
   IntegratorOptions integrator;
   MetricOptions metrics;
   TraceOptions trace;
+  Extension extension;  ///< catalogue effect added to the model (default none; extensions.h)
 
   /// The seed's default two-stage run: 10 s still, then 10 s vibrating at v_a [m/s], 1500 Hz.
   static SimConfig seed(ModelKind model, double v_a);
@@ -129,9 +132,13 @@ struct SimConfig {
 /// alpha, h_t, h_v, v_s, dt, rtol, dt_max, v_a (every stage after the first: the seed's stage 1
 /// is always the still base), f (every stage), t_on (start of stage 2 = duration of stage 1),
 /// duration (whole run; stage 1 keeps t_on when possible, the rest is stage 2..n in proportion),
-/// stage<i>.duration, stage<i>.v_a, stage<i>.f (i from 1), settle_fraction, cycle_threshold.
+/// stage<i>.duration, stage<i>.v_a, stage<i>.f (i from 1), settle_fraction, cycle_threshold,
+/// and the extension parameters (sigma2, stribeck_delta, dwell_A, ..., c_d; see extensions.h;
+/// the effect itself is chosen with set_extension).
 /// Throws InvalidParameter naming the field and the value.
 void set_parameter(SimConfig& cfg, std::string_view name, double value);
+/// Chooses the catalogue effect by id ("none", "viscous", ...); its parameters keep their values.
+void set_extension(SimConfig& cfg, std::string_view effect);
 /// Reads a parameter by the same names (throws InvalidParameter for an unknown name).
 double get_parameter(const SimConfig& cfg, std::string_view name);
 /// All names accepted by set_parameter for any configuration (the fixed ones, plus stage1.*,

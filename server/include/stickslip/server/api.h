@@ -7,6 +7,8 @@
 //   GET  /v1/studies/{id}/runs         JSON pages, or CSV with Accept: text/csv
 //   GET  /v1/studies/{id}/map          stick-slip map, JSON or CSV
 //   POST /v1/studies/{id}:cancel
+//   GET  /v1/studies/{id}/indices      Sobol / Morris indices (output=a,b; confidence=0.95)
+//   GET  /v1/reports                   nightly reports (dates); GET /v1/reports/{date}/...
 //   GET  /healthz, GET /metrics (Prometheus text), GET /v1/openapi.json
 //
 // Every handler leases its own Store connection from the pool, so handlers may run on any number
@@ -42,6 +44,7 @@ struct ApiOptions {
   /// committed in batches every 0.5 s anyway, so a poller sees nothing staler than that; 50
   /// clients polling one study then cost one store read per period instead of one per request.
   std::chrono::milliseconds study_cache_ttl{100};
+  std::filesystem::path reports_dir;      ///< `stickslip report --out` directory; empty: none
 
   bool IsValid(std::string* why) const;
 };
@@ -67,6 +70,11 @@ class Api {
   Response get_runs(const Request& r, const std::string& id) const;
   Response get_map(const Request& r, const std::string& id) const;
   Response cancel_study(const Request& r, const std::string& id) const;
+  Response get_indices(const Request& r, const std::string& id) const;
+  Response list_reports(const Request& r) const;
+  /// A file of a report: reports_dir/date/sub/name (sub "" or "plots"); names are checked.
+  Response get_report_file(const Request& r, const std::string& date, const std::string& sub,
+                           const std::string& name) const;
   Response healthz(const Request& r) const;
   Response metrics(const Request& r) const;
   Response openapi(const Request& r) const;

@@ -8,7 +8,9 @@
 // References:
 //  - Saltelli A. et al. (2010) Variance based sensitivity analysis of model output. Design and
 //    estimator for the total sensitivity index. Comput. Phys. Commun. 181:259-270.
-//    (first order: Saltelli 2010 eq. (b) in Table 2; total: Jansen 1999, Table 2 eq. (f)).
+//    (first order: Saltelli 2010 eq. (b) in Table 2 with f(B) centred on the sample mean, as
+//    SALib does, which keeps its variance independent of the output's mean; total: Jansen 1999,
+//    Table 2 eq. (f)).
 //  - Morris M.D. (1991) Factorial sampling plans for preliminary computational experiments.
 //    Technometrics 33:161-174; Campolongo F. et al. (2007) for mu*.
 

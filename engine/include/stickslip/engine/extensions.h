@@ -1,0 +1,105 @@
+#pragma once
+// The catalogue of model extensions (issue 5): physical effects the seed's four models leave out,
+// each a candidate cause when a calibrated model misses measured data. An Extension is a small
+// value type carried in SimConfig (default: none) and applied inside the engine's friction
+// evaluation, so simulate(), studies and the diagnosis all see the same physics.
+//
+// One effect at a time (kind); the parameters of the other effects must stay at their neutral
+// defaults (IsValid reports a non-neutral parameter of an unselected effect, so a typo such as
+// --effect viscous --effect-param dwell_A=1 is not silently ignored). SI units.
+//
+//   viscous                F_f += sigma2 v_r                                   sigma2 [N s/m] >= 0
+//                          (Karnopp: slip branch only; stick is a reaction force)
+//   stribeck_shape         LuGre Stribeck curve exp(-|v_r/v_s|^delta), delta > 0 (seed: 2).
+//                          Dahl, Karnopp and the Reset Integrator have no Stribeck curve: inert.
+//   dwell_time             static friction grows with the time the contact has been stuck:
+//                          F_S(t_stick) = F_S0 + A ln(1 + t_stick/tau)   A [N] >= 0, tau [s] > 0
+//                          t_stick = time since |v_r| was last above dwell_v [m/s] (after each
+//                          accepted integrator step; 0 s at t = 0 means "stuck since the start").
+//                          Karnopp/LuGre: F_S; Reset Integrator: breakaway force
+//                          (1 + alpha) k_t s0 + A ln(...) (alpha raised by A ln(...)/(k_t s0));
+//                          Dahl has no static friction: inert.
+//   waviness               friction level along the track x [m]:
+//                          F_C, F_S x (1 + eps sin(2 pi x / lambda + phi))
+//                          eps in [0, 1), lambda [m] > 0, phi [rad]
+//   drift                  friction level drifts with sliding distance (wear, heating):
+//                          F_C, F_S x (1 + gamma x), gamma [1/m]; 1 + gamma x must stay > 0
+//   normal_load_modulation while a stage vibrates, the normal load and so the friction level
+//                          scale with 1 + eta sin(w t' + phi), t' the time since the vibration
+//                          started (the base velocity is v_a cos(w t')). eta in [0, 1)
+//   sensor_dynamics        the force sensor is a second-order system driven by the true F_d:
+//                          y'' + 2 zeta omega_n y' + omega_n^2 y = omega_n^2 F_d, with
+//                          omega_n = 1 / sensor_tau [rad/s]; sensor_tau = 0 is an ideal sensor.
+//                          Only the *measured* signal changes: the trace's F_d is y, while the
+//                          physics and the per-stage metrics use the true F_d.
+//   drive_damping          F_d = k_d (v_d t - x) + c_d (v_d - x'),  c_d [N s/m] >= 0
+//
+// "Friction level" scaling (waviness, drift, normal load) multiplies F_C and F_S (Dahl: F_C;
+// Karnopp: F_S and F_slip; LuGre: F_C and F_S inside g(v_r), so the bristle relaxes to the new
+// level; Reset Integrator: the whole contact force (1 + a) k_t s + beta s', i.e. both the
+// sliding force k_t s0 and the breakaway force).
+//
+// Every effect has a neutral value of its size parameter (sigma2 = 0, delta = 2, A = 0, eps = 0,
+// gamma = 0, eta = 0, sensor_tau = 0, c_d = 0) at which it reproduces the base model exactly.
+
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace stickslip {
+
+enum class ExtensionKind {
+  kNone,
+  kViscous,
+  kStribeckShape,
+  kDwellTime,
+  kWaviness,
+  kDrift,
+  kNormalLoadModulation,
+  kSensorDynamics,
+  kDriveDamping,
+};
+/// The catalogue ids: "none", "viscous", "stribeck_shape", "dwell_time", "waviness", "drift",
+/// "normal_load_modulation", "sensor_dynamics", "drive_damping".
+const char* to_string(ExtensionKind k) noexcept;
+/// Throws InvalidParameter("effect", name, ...) for an unknown id.
+ExtensionKind extension_from_string(std::string_view name);
+/// The eight catalogue entries (without kNone), in catalogue order.
+const std::vector<ExtensionKind>& extension_catalogue();
+
+struct Extension {
+  ExtensionKind kind = ExtensionKind::kNone;
+  double sigma2 = 0.0;           ///< viscous: [N s/m]
+  double stribeck_delta = 2.0;   ///< stribeck_shape: exponent [-]
+  double dwell_A = 0.0;          ///< dwell_time: log-growth amplitude [N]
+  double dwell_tau = 0.1;        ///< dwell_time: time scale [s]
+  double dwell_v = 1.0e-4;       ///< dwell_time: |v_r| above this resets the stick clock [m/s]
+  double waviness_eps = 0.0;     ///< waviness: relative amplitude [-]
+  double waviness_lambda = 1e-3; ///< waviness: wavelength along the track [m]
+  double waviness_phi = 0.0;     ///< waviness: phase [rad]
+  double drift_gamma = 0.0;      ///< drift: relative change per metre of sliding [1/m]
+  double load_eta = 0.0;         ///< normal_load_modulation: relative amplitude [-]
+  double load_phi = 0.0;         ///< normal_load_modulation: phase against the base [rad]
+  double sensor_tau = 0.0;       ///< sensor_dynamics: 1/omega_n [s]; 0 = ideal sensor
+  double sensor_zeta = 0.7;      ///< sensor_dynamics: damping ratio [-]
+  double c_d = 0.0;              ///< drive_damping: drive damping [N s/m]
+
+  bool active() const noexcept { return kind != ExtensionKind::kNone; }
+  /// Appends "field = value: why" per broken constraint. x_max [m] is the largest sliding
+  /// distance of the run (for drift: 1 + gamma x must stay > 0); pass 0 to skip that check.
+  bool IsValid(std::vector<std::string>* errors = nullptr, double x_max = 0.0) const;
+};
+
+/// Parameter names of one effect, its size parameter first (e.g. "sigma2"; for dwell_time
+/// "dwell_A", "dwell_tau", "dwell_v"). Empty for kNone.
+std::vector<std::string> extension_parameter_names(ExtensionKind k);
+/// Every extension parameter name (all effects), plus the alias "sensor_omega_n" = 1/sensor_tau.
+std::vector<std::string> all_extension_parameter_names();
+/// The effect a parameter belongs to; kNone for a name that is not an extension parameter.
+ExtensionKind extension_of_parameter(std::string_view name);
+/// Sets / reads one extension parameter by name with domain checks (InvalidParameter naming
+/// the field and the value). Returns false (and does nothing) when name is not one of them.
+bool set_extension_parameter(Extension& e, std::string_view name, double value);
+bool get_extension_parameter(const Extension& e, std::string_view name, double* value);
+
+}  // namespace stickslip

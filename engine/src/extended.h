@@ -1,0 +1,163 @@
+#pragma once
+// Internal: how the catalogue extensions (stickslip/engine/extensions.h) enter the friction
+// evaluation. Kept apart from system.h so that the base models' path stays as it was: a Plant
+// without an ExtRuntime (the default) never reaches this code.
+//
+// Each extension reduces, at one instant, to
+//   level  multiplier of the friction level (waviness, drift, normal load) [-]
+//   dFS    addition to the static friction force (dwell time) [N]
+//   sigma2 viscous coefficient [N s/m], delta the Stribeck exponent, c_d the drive damping
+// and the per-model functions below apply them with the same operation order as the base
+// models, so that neutral sizes reproduce the base model bit for bit.
+
+#include <cmath>
+
+#include "stickslip/engine/extensions.h"
+#include "stickslip/engine/models.h"
+
+namespace stickslip::detail {
+
+/// Modulation of the friction law at one instant.
+struct Mod {
+  double level = 1.0;  ///< friction-level multiplier [-]
+  double dFS = 0.0;    ///< static friction increase [N]
+};
+
+/// Per-run extension state: the parameters, reduced to what the evaluation needs, plus the
+/// stick clock for dwell_time (updated after every accepted integrator step).
+struct ExtRuntime {
+  ExtensionKind kind = ExtensionKind::kNone;
+  Extension e;
+  double sigma2 = 0.0;  ///< effective viscous coefficient (0 unless kind == viscous) [N s/m]
+  double delta = 2.0;   ///< effective Stribeck exponent [-]
+  double c_d = 0.0;     ///< effective drive damping [N s/m]
+  double two_pi_over_lambda = 0.0;  ///< waviness wavenumber [1/m]
+  double t_slip = 0.0;  ///< last time |v_r| > dwell_v [s]
+
+  ExtRuntime() = default;
+  explicit ExtRuntime(const Extension& ext) : kind(ext.kind), e(ext) {
+    if (kind == ExtensionKind::kViscous) sigma2 = e.sigma2;
+    if (kind == ExtensionKind::kStribeckShape) delta = e.stribeck_delta;
+    if (kind == ExtensionKind::kDriveDamping) c_d = e.c_d;
+    two_pi_over_lambda = 2.0 * M_PI / e.waviness_lambda;
+  }
+  bool tracks_stick() const noexcept { return kind == ExtensionKind::kDwellTime; }
+
+  /// v_a, w, t0: the current stage's base vibration (u' = v_a cos(w (t - t0))).
+  Mod modulation(double t, double x, double v_a, double w, double t0) const noexcept {
+    Mod m;
+    switch (kind) {
+      case ExtensionKind::kWaviness:
+        m.level = 1.0 + e.waviness_eps * std::sin(two_pi_over_lambda * x + e.waviness_phi);
+        break;
+      case ExtensionKind::kDrift: m.level = 1.0 + e.drift_gamma * x; break;
+      case ExtensionKind::kNormalLoadModulation:
+        if (v_a > 0.0) m.level = 1.0 + e.load_eta * std::sin(w * (t - t0) + e.load_phi);
+        break;
+      case ExtensionKind::kDwellTime:
+        m.dFS = e.dwell_A * std::log1p(std::fmax(t - t_slip, 0.0) / e.dwell_tau);
+        break;
+      default: break;
+    }
+    return m;
+  }
+
+  /// Stribeck factor exp(-|v_r/v_s|^delta); the seed's exp(-(v_r/v_s)^2) for delta = 2.
+  double stribeck(const LuGre& l, double v_r) const noexcept {
+    if (delta == 2.0) return l.stribeck(v_r);
+    const double q = std::pow(std::fabs(v_r) / l.v_s, delta);
+    return q > 745.0 ? 0.0 : std::exp(-q);
+  }
+};
+
+// ---- the four models with an extension (same formulas and operation order as models.h) ------
+
+inline FrictionEval eval_ext(const Dahl& d, const ExtRuntime& r, const Mod& m, double v_r,
+                             double s, double F_d) noexcept {
+  FrictionEval fe;
+  if (m.level == 1.0) {
+    fe = d(v_r, s, F_d);
+  } else {
+    Dahl dd = d;
+    dd.F_C = d.F_C * m.level;
+    dd.k_over_FC = dd.k_t / dd.F_C;
+    fe = dd(v_r, s, F_d);
+  }
+  fe.F_f += r.sigma2 * v_r;
+  return fe;
+}
+
+inline FrictionEval eval_ext(const Karnopp& k, const ExtRuntime& r, const Mod& m, double v_r,
+                             double /*s*/, double F_d) noexcept {
+  const double F_S = m.level * (k.F_S + m.dFS);
+  if (std::fabs(v_r) <= k.DV) return {std::fmin(std::fmax(F_d, -F_S), F_S), 0.0};
+  return {(m.level * k.F_slip + r.sigma2 * std::fabs(v_r)) * sgn(v_r), 0.0};
+}
+
+inline FrictionEval eval_ext(const ResetIntegrator& ri, const ExtRuntime& r, const Mod& m,
+                             double v_r, double s, double /*F_d*/) noexcept {
+  const bool held = (v_r < 0.0 && s <= -ri.s0) || (v_r > 0.0 && s >= ri.s0);
+  const double ds = held ? 0.0 : v_r;
+  const double a = std::fabs(s) < ri.s0 ? ri.alpha + m.dFS / (ri.k_t * ri.s0) : 0.0;
+  return {m.level * ((1.0 + a) * ri.k_t * s + ri.beta * ds) + r.sigma2 * v_r, ds};
+}
+
+inline FrictionEval eval_ext(const LuGre& l, const ExtRuntime& r, const Mod& m, double v_r,
+                             double s, double /*F_d*/) noexcept {
+  const double e = r.stribeck(l, v_r);
+  const double F_C = l.F_C * m.level, F_S = (l.F_S + m.dFS) * m.level;
+  const double g_kt = F_C + (F_S - F_C) * e;
+  const double ds = v_r - std::fabs(v_r) * l.k_t * s / g_kt;
+  return {l.k_t * s + l.h_t * e * ds + l.h_v * v_r + r.sigma2 * v_r, ds};
+}
+
+/// The force sensor of sensor_dynamics: y'' + 2 zeta wn y' + wn^2 y = wn^2 u, driven by the
+/// true F_d u(t), taken as piecewise linear between the integrator's steps. Integrated by
+/// classic RK4 with sub-steps of at most 0.1/wn (local error ~1e-7 relative per sub-step),
+/// written by hand because it is 10 lines and sits inside the trace recorder. Starts at rest
+/// on the first sample (y = u, y' = 0).
+class SensorFilter {
+ public:
+  SensorFilter() = default;
+  SensorFilter(double tau, double zeta) : wn_(tau > 0 ? 1.0 / tau : 0.0), zeta_(zeta) {}
+  bool active() const noexcept { return wn_ > 0.0; }
+  double step(double t, double u) noexcept {
+    if (!init_) {
+      init_ = true;
+      y_ = u;
+      t_ = t;
+      u_ = u;
+      return y_;
+    }
+    const double span = t - t_;
+    if (span > 0) {
+      const int n = static_cast<int>(std::ceil(span * wn_ / 0.1));
+      const double h = span / n, du = (u - u_) / n;
+      const double w2 = wn_ * wn_, c = 2.0 * zeta_ * wn_;
+      auto f = [&](double y, double yd, double uu, double* a) { *a = w2 * (uu - y) - c * yd; };
+      for (int i = 0; i < n; ++i) {
+        const double u0 = u_ + du * i, um = u0 + 0.5 * du, u1 = u0 + du;
+        double a1, a2, a3, a4;
+        f(y_, yd_, u0, &a1);
+        const double y2 = y_ + 0.5 * h * yd_, yd2 = yd_ + 0.5 * h * a1;
+        f(y2, yd2, um, &a2);
+        const double y3 = y_ + 0.5 * h * yd2, yd3 = yd_ + 0.5 * h * a2;
+        f(y3, yd3, um, &a3);
+        const double y4 = y_ + h * yd3, yd4 = yd_ + h * a3;
+        f(y4, yd4, u1, &a4);
+        y_ += h / 6.0 * (yd_ + 2.0 * (yd2 + yd3) + yd4);
+        yd_ += h / 6.0 * (a1 + 2.0 * (a2 + a3) + a4);
+      }
+    }
+    t_ = t;
+    u_ = u;
+    return y_;
+  }
+
+ private:
+  double wn_ = 0.0, zeta_ = 0.7;
+  bool init_ = false;
+  double t_ = 0, u_ = 0, y_ = 0, yd_ = 0;
+};
+
+}  // namespace stickslip::detail

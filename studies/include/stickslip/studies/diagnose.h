@@ -1,0 +1,153 @@
+#pragma once
+// Diagnosis of measured drive-force data (issue 5): calibrate the four base models, pick the
+// best on held-out data, fit every catalogue extension with the base parameters refitted, test
+// each against the refitted base, and name the cause (or "none").
+//
+// Method (details in docs/diagnose.md):
+//  * Data. Each run's samples are decimated to about fit_rate. In every stage the last
+//    holdout_fraction is held out (time blocks within runs); the rest of the first (still)
+//    stage and the first later_stage_fit_span seconds of each later stage are fitted.
+//  * Objective. Sum of squared time-domain residuals measured - simulated - offset over the fit
+//    samples; the offset (one constant per dataset, a sensor bias) is solved in closed form.
+//    Parameters are mapped to a unit box (log scale for scale parameters) and optimised by
+//    NLopt's BOBYQA (derivative-free). Base models first fit a short window (the first
+//    stick-slip cycles) from data-driven starting values (F_C ~ stage-1 mean, F_S ~ mean +
+//    amplitude/2), then the whole fit set; extensions start from the base optimum plus a few
+//    starting values of their own (residual spectrum against x for waviness, phase grids).
+//  * Uncertainty. Covariance s^2 (J^T J)^-1 from the finite-difference Jacobian of the
+//    residuals (Eigen), inflated by n / n_eff for correlated residuals.
+//  * Significance. Likelihood ratio n_eff ln(SSE_base / SSE_ext) ~ chi^2(k) with n_eff =
+//    n (1 - rho) / (1 + rho) from the AR(1) coefficient rho of the base residuals; Holm's
+//    correction over the candidates; and a minimum effect size: held-out gain >= min_gain.
+//    A significant candidate also triggers a base-only refit from its base parameters, so an
+//    extension never wins only because the base optimisation had stopped early.
+
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "stickslip/engine/params.h"
+#include "stickslip/engine/simulate.h"
+#include "stickslip/studies/measured.h"
+
+namespace stickslip::studies {
+
+struct DiagnoseOptions {
+  std::vector<ModelKind> models = {ModelKind::kDahl, ModelKind::kKarnopp,
+                                   ModelKind::kResetIntegrator, ModelKind::kLuGre};
+  std::vector<ExtensionKind> candidates = extension_catalogue();
+  double fit_rate = 250.0;              ///< decimated samples per second [Hz]
+  double holdout_fraction = 0.3;        ///< last part of every stage held out [-]
+  double later_stage_fit_span = 2.0;    ///< seconds of each later stage fitted [s]
+  double short_window = 3.0;            ///< base models' first fit window [s]
+  double rtol = 1e-5;                   ///< engine accuracy while fitting (rtol = atol [N])
+  int max_evals_base = 70;              ///< objective evaluations per base model
+  int max_evals_candidate = 45;         ///< objective evaluations per extension
+  double alpha = 0.01;                  ///< family-wise significance level [-]
+  double min_gain = 0.1;                ///< minimum held-out gain to name a cause [-]
+  bool fit_offset = true;               ///< fit one constant sensor offset [N]
+  bool keep_traces = true;              ///< keep measured/base/extended series for plots
+  int threads = 0;                      ///< OpenMP threads (0 = default)
+
+  bool IsValid(std::string* why) const;
+};
+
+struct ParamEstimate {
+  std::string name;
+  double value = 0;   ///< SI
+  double stderr_ = 0; ///< standard error (SI); NaN when the Jacobian is singular
+};
+
+/// Per-stage cycle statistics of a signal (StageAccumulator definitions, simulate.h).
+struct StageScore {
+  int run = 0, stage = 0;
+  double measured_amplitude = 0, model_amplitude = 0;  ///< [N]
+  double measured_mean = 0, model_mean = 0;            ///< [N]
+  double measured_period = 0, model_period = 0;        ///< [s]
+  int measured_slips = 0, model_slips = 0;
+};
+
+struct BaseCalibration {
+  ModelKind model = ModelKind::kLuGre;
+  std::string status = "ok";  ///< "ok" or why the calibration failed
+  std::vector<ParamEstimate> params;
+  double offset = 0;           ///< fitted sensor offset [N]
+  double rmse_fit = 0, rmse_heldout = 0;  ///< [N]
+  std::vector<double> rmse_run;  ///< whole-run RMSE per run (seed eq. 23) [N]
+  double aic = 0;              ///< n_eff ln(SSE/n) + 2 k on the fit set
+  int evals = 0;
+  std::vector<StageScore> stages;
+};
+
+struct CandidateResult {
+  ExtensionKind kind = ExtensionKind::kNone;
+  std::string status = "ok";
+  std::vector<ParamEstimate> params;       ///< extension parameters (SI), size parameter first
+  std::vector<ParamEstimate> base_params;  ///< refitted base parameters
+  double offset = 0;
+  double rmse_fit = 0, rmse_heldout = 0;   ///< [N]
+  double gain = 0;         ///< 1 - rmse_heldout / base rmse_heldout
+  double aic = 0;          ///< on the same footing as the base's
+  double lr = 0;           ///< likelihood-ratio statistic against the refitted base
+  int dof = 0;             ///< extra parameters
+  double p_value = 1, p_holm = 1;
+  bool significant = false;  ///< p_holm < alpha and gain >= min_gain
+  int evals = 0;
+};
+
+struct Evidence {
+  double residual_rms = 0;        ///< [N]
+  double rho = 0;                 ///< lag-1 autocorrelation of fit residuals [-]
+  double n = 0, n_eff = 0;        ///< fit samples, effective samples
+  double corr_velocity = 0;       ///< corr(residual, simulated x') [-]
+  double corr_position = 0;       ///< corr(residual, simulated x) [-]
+  double corr_stick_time = 0;     ///< corr(residual, time since the body last slid) [-]
+  double trend_per_m = 0;         ///< residual slope against x [N/m]
+  double wavelength = 0;          ///< strongest residual period along x [m]
+  double wavelength_amplitude = 0;  ///< its amplitude [N]
+  double wavelength_ratio = 0;    ///< its power over the median power of the scan [-]
+  double wavelength_phase = 0;    ///< phase of the fitted sin(2 pi x / lambda + phase) [rad]
+  std::vector<double> stage_mean_residual;  ///< per run and stage, run-major [N]
+  std::vector<double> stage_va;             ///< the matching v_a [m/s]
+  std::vector<StageScore> stages;           ///< base model's per-cycle scores
+};
+
+/// Series at the decimated sample times, for plots.
+struct RunSeries {
+  std::string name;
+  std::vector<double> t, measured, base, extended;  ///< extended: empty when cause is none
+};
+
+struct Diagnosis {
+  std::string dataset;
+  ModelKind base_model = ModelKind::kLuGre;
+  std::vector<ParamEstimate> base_params;
+  std::string cause = "none";
+  std::string best_candidate;  ///< lowest held-out RMSE, significant or not
+  double rmse_base_heldout = 0, rmse_extended_heldout = 0, gain = 0;  ///< [N], [N], [-]
+  std::vector<std::string> run_names;
+  std::vector<double> run_va;
+  std::vector<BaseCalibration> calibrations;
+  std::vector<CandidateResult> candidates;
+  Evidence evidence;
+  std::vector<RunSeries> series;
+  double seconds = 0;  ///< wall time [s]
+  int evaluations = 0;
+  DiagnoseOptions options;
+};
+
+/// The whole diagnosis as a pure function (no files, no globals). Throws std::invalid_argument
+/// for invalid options or a dataset it cannot use (naming the field and value).
+Diagnosis diagnose(const MeasuredDataset& data, const DiagnoseOptions& options = {});
+
+/// diagnosis.json content (fields of issue 5; NaN/Inf as null). series are not included.
+nlohmann::json to_json(const Diagnosis& d);
+/// A short human-readable summary.
+std::string summary_text(const Diagnosis& d);
+/// Writes dir/diagnosis.json, the plot data and, when gnuplot is on PATH, PNG plots (per run:
+/// measured vs base vs extended, residuals; evidence: residual against x and its spectrum).
+/// Returns the files written. Plot failures are reported in the returned list, never thrown.
+std::vector<std::string> write_report(const Diagnosis& d, const std::filesystem::path& dir);
+
+}  // namespace stickslip::studies

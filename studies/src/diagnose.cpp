@@ -1,0 +1,521 @@
+// The diagnosis pipeline (see diagnose.h): calibrate, choose, extend, test, name.
+#include "stickslip/studies/diagnose.h"
+
+#include <omp.h>
+
+#include <algorithm>
+#include <boost/math/distributions/chi_squared.hpp>
+#include <chrono>
+#include <cmath>
+#include <numeric>
+#include <stdexcept>
+
+#include "diagnose_fit.h"
+#include "stickslip/engine/metrics.h"
+
+namespace stickslip::studies {
+
+using namespace diag;
+
+bool DiagnoseOptions::IsValid(std::string* why) const {
+  auto fail = [&](const std::string& m) {
+    if (why) *why = m;
+    return false;
+  };
+  auto pos = [](double v) { return std::isfinite(v) && v > 0; };
+  if (models.empty()) return fail("models: at least one base model is needed");
+  if (!pos(fit_rate)) return fail("fit_rate = " + std::to_string(fit_rate) + ": must be > 0");
+  if (!(holdout_fraction > 0 && holdout_fraction < 0.9))
+    return fail("holdout_fraction = " + std::to_string(holdout_fraction) + ": must be in (0, 0.9)");
+  if (!pos(later_stage_fit_span))
+    return fail("later_stage_fit_span = " + std::to_string(later_stage_fit_span) + ": must be > 0");
+  if (!pos(short_window)) return fail("short_window = " + std::to_string(short_window) + ": must be > 0");
+  if (!pos(rtol)) return fail("rtol = " + std::to_string(rtol) + ": must be > 0");
+  if (max_evals_base < 10) return fail("max_evals_base = " + std::to_string(max_evals_base) + ": must be >= 10");
+  if (max_evals_candidate < 10)
+    return fail("max_evals_candidate = " + std::to_string(max_evals_candidate) + ": must be >= 10");
+  if (!(alpha > 0 && alpha < 1)) return fail("alpha = " + std::to_string(alpha) + ": must be in (0, 1)");
+  if (!(min_gain >= 0 && min_gain < 1)) return fail("min_gain = " + std::to_string(min_gain) + ": must be in [0, 1)");
+  for (ExtensionKind k : candidates)
+    if (k == ExtensionKind::kNone) return fail("candidates: \"none\" is not a candidate");
+  return true;
+}
+
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+double rms(double sse, std::size_t n) { return n ? std::sqrt(sse / static_cast<double>(n)) : kNaN; }
+
+std::vector<ParamEstimate> estimates(const FitModel& m, const std::vector<double>& theta,
+                                     const std::vector<double>& se, std::size_t from,
+                                     std::size_t to) {
+  std::vector<ParamEstimate> out;
+  for (std::size_t i = from; i < to; ++i) {
+    std::string name = m.specs[i].name;
+    double v = theta[i], s = se.empty() ? kNaN : se[i];
+    if (name == "F_C/F_S") {  // report F_C itself
+      const double F_S = theta[0];
+      name = "F_C";
+      v = theta[i] * F_S;
+      s = std::isfinite(s) ? s * F_S : s;
+    }
+    out.push_back({name, v, s});
+  }
+  return out;
+}
+
+/// Per-stage cycle statistics of measured and simulated F_d at the samples.
+std::vector<StageScore> stage_scores(const Problem& p, const Evaluation& e) {
+  std::vector<StageScore> out;
+  MetricOptions mo;
+  for (std::size_t k = 0; k < p.runs.size(); ++k) {
+    const RunData& r = p.runs[k];
+    for (std::size_t j = 0; j < r.stage_start.size(); ++j) {
+      const double t0 = r.stage_start[j];
+      const double t1 = j + 1 < r.stage_start.size() ? r.stage_start[j + 1] : r.cond.duration;
+      StageAccumulator am(t0, t1, mo), as(t0, t1, mo);
+      for (std::size_t i = 0; i < r.t.size() && i < e.sims[k].F.size(); ++i) {
+        if (r.t[i] < t0 || r.t[i] > t1) continue;
+        am.sample(r.t[i], r.y[i], r.y[i]);
+        as.sample(r.t[i], e.sims[k].F[i] + e.offset, e.sims[k].F[i]);
+      }
+      const StageMetrics a = am.finish(), b = as.finish();
+      out.push_back({static_cast<int>(k), static_cast<int>(j), a.amplitude, b.amplitude,
+                     a.mean_force, b.mean_force, a.mean_period, b.mean_period, a.slip_events,
+                     b.slip_events});
+    }
+  }
+  return out;
+}
+
+double corr(const std::vector<double>& a, const std::vector<double>& b) {
+  const double n = static_cast<double>(a.size());
+  if (a.size() < 3) return 0;
+  const double ma = std::accumulate(a.begin(), a.end(), 0.0) / n;
+  const double mb = std::accumulate(b.begin(), b.end(), 0.0) / n;
+  double sab = 0, saa = 0, sbb = 0;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    sab += (a[i] - ma) * (b[i] - mb);
+    saa += (a[i] - ma) * (a[i] - ma);
+    sbb += (b[i] - mb) * (b[i] - mb);
+  }
+  return saa > 0 && sbb > 0 ? sab / std::sqrt(saa * sbb) : 0.0;
+}
+
+/// Lag-1 autocorrelation of residuals, pooled within runs.
+double lag1(const Problem& p, const Evaluation& e) {
+  double num = 0, den = 0;
+  for (std::size_t k = 0; k < p.runs.size(); ++k) {
+    const RunData& r = p.runs[k];
+    double prev = 0;
+    bool have = false;
+    for (std::size_t i = 0; i < e.sims[k].F.size(); ++i) {
+      if (r.role[i] != kFit) { have = false; continue; }
+      const double res = r.y[i] - e.sims[k].F[i] - e.offset;
+      den += res * res;
+      if (have) num += res * prev;
+      prev = res;
+      have = true;
+    }
+  }
+  return den > 0 ? std::clamp(num / den, 0.0, 0.99) : 0.0;
+}
+
+struct WaveScan {
+  std::vector<double> lambda, amplitude, phase;
+};
+
+/// Amplitude of sin(2 pi x / lambda + phase) in the residuals over a log grid of wavelengths.
+WaveScan scan_wavelengths(const std::vector<double>& res, const std::vector<double>& x) {
+  WaveScan w;
+  const int n = 240;
+  for (int i = 0; i < n; ++i) {
+    const double lam = 2e-4 * std::pow(100.0, i / (n - 1.0));
+    double ss = 0, sc = 0, s2 = 0, c2 = 0, sc2 = 0;
+    for (std::size_t j = 0; j < res.size(); ++j) {
+      const double ph = 2 * M_PI * x[j] / lam, s = std::sin(ph), c = std::cos(ph);
+      ss += res[j] * s;
+      sc += res[j] * c;
+      s2 += s * s;
+      c2 += c * c;
+      sc2 += s * c;
+    }
+    const double det = s2 * c2 - sc2 * sc2;
+    double a = 0, b = 0;  // res ~ a sin + b cos
+    if (det > 0) {
+      a = (ss * c2 - sc * sc2) / det;
+      b = (sc * s2 - ss * sc2) / det;
+    }
+    w.lambda.push_back(lam);
+    w.amplitude.push_back(std::hypot(a, b));
+    w.phase.push_back(std::atan2(b, a));
+  }
+  return w;
+}
+
+struct BaseFit {
+  BaseCalibration cal;
+  FitModel model;
+  std::vector<double> theta;
+  double sse_fit = 0;
+  std::size_t n_fit = 0;
+  Evaluation full;
+};
+
+void finish_base(const Problem& P, BaseFit& b) {
+  b.full = evaluate(P, b.model, b.theta, Span::kFull, 0);
+  BaseCalibration& c = b.cal;
+  if (!b.full.ok) {
+    c.status = "failed: " + b.full.reason;
+    return;
+  }
+  c.offset = b.full.offset;
+  c.rmse_fit = rms(b.full.sse_fit, b.full.n_fit);
+  c.rmse_heldout = rms(b.full.sse_held, b.full.n_held);
+  b.sse_fit = b.full.sse_fit;
+  b.n_fit = b.full.n_fit;
+  c.rmse_run.clear();
+  for (std::size_t k = 0; k < P.runs.size(); ++k) {
+    double s = 0;
+    for (std::size_t i = 0; i < b.full.sims[k].F.size(); ++i) {
+      const double r = P.runs[k].y[i] - b.full.sims[k].F[i] - b.full.offset;
+      s += r * r;
+    }
+    c.rmse_run.push_back(rms(s, b.full.sims[k].F.size()));
+  }
+  c.stages = stage_scores(P, b.full);
+}
+
+BaseFit calibrate(const Problem& P, ModelKind kind, double F_C0, double F_S0,
+                  const DiagnoseOptions& o, const std::vector<double>* start) {
+  BaseFit b;
+  b.cal.model = kind;
+  b.model.base = SimConfig::seed(kind, 0.0);
+  b.model.specs = base_specs(kind, F_C0, F_S0);
+  std::vector<double> init;
+  for (const auto& s : b.model.specs) init.push_back(s.init);
+  FitResult fr;
+  if (start) {  // polish from a given point
+    fr = fit(P, b.model, {*start}, Span::kFit, 0, o.max_evals_base / 2);
+  } else {
+    // Cycle features first (independent of slip timing), then the time-domain fit from there.
+    const int n_short = o.max_evals_base * 2 / 5;
+    const FitResult a = fit(P, b.model, {init}, Span::kFeatures, 0, n_short);
+    std::vector<std::vector<double>> starts = {init};
+    if (a.ok) starts.insert(starts.begin(), a.theta);
+    fr = fit(P, b.model, starts, Span::kFit, 0, o.max_evals_base - a.evals);
+    fr.evals += a.evals;
+  }
+  b.cal.evals = fr.evals;
+  if (!fr.ok) {
+    b.cal.status = "failed: " + fr.reason;
+    return b;
+  }
+  b.theta = fr.theta;
+  finish_base(P, b);
+  return b;
+}
+
+struct CandFit {
+  CandidateResult res;
+  FitModel model;
+  std::vector<double> theta;
+  double sse_fit = 0;
+  double n_eff = 10;  ///< effective samples from the candidate's own residuals (the noise
+                      ///< model under the alternative; under the null both are the noise)
+  Evaluation full;
+};
+
+std::vector<std::vector<double>> extension_starts(ExtensionKind k, const std::vector<ParamSpec>& specs,
+                                                  const Evidence& ev, const WaveScan& scan,
+                                                  double F_C0) {
+  std::vector<std::vector<double>> s;
+  switch (k) {
+    case ExtensionKind::kViscous: s = {{0.0}, {50.0}}; break;
+    case ExtensionKind::kStribeckShape: s = {{2.0}, {1.0}, {4.0}}; break;
+    case ExtensionKind::kDwellTime: s = {{0.05, 0.1}, {0.3, 0.01}, {0.3, 0.3}, {1.0, 1.0}}; break;
+    case ExtensionKind::kWaviness: {
+      // The three strongest local maxima of the residual spectrum against x.
+      std::vector<std::size_t> peaks;
+      for (std::size_t i = 1; i + 1 < scan.lambda.size(); ++i)
+        if (scan.amplitude[i] >= scan.amplitude[i - 1] && scan.amplitude[i] >= scan.amplitude[i + 1])
+          peaks.push_back(i);
+      std::sort(peaks.begin(), peaks.end(),
+                [&](std::size_t a, std::size_t b) { return scan.amplitude[a] > scan.amplitude[b]; });
+      peaks.resize(std::min<std::size_t>(peaks.size(), 3));
+      for (std::size_t i : peaks) {
+        const double eps = std::clamp(scan.amplitude[i] / F_C0, 0.003, 0.25);
+        for (double ph : {0.0, 0.5 * M_PI, M_PI, 1.5 * M_PI})
+          s.push_back({eps, scan.lambda[i], ph - M_PI});
+        s.push_back({eps, scan.lambda[i], scan.phase[i]});
+      }
+      if (s.empty()) s = {{specs[0].init, specs[1].init, specs[2].init}};
+      break;
+    }
+    case ExtensionKind::kDrift:
+      s = {{0.0}, {std::clamp(ev.trend_per_m / F_C0, -39.0, 39.0)}};
+      break;
+    case ExtensionKind::kNormalLoadModulation:
+      for (double ph : {0.0, 0.5 * M_PI, M_PI, 1.5 * M_PI}) s.push_back({0.1, ph - M_PI});
+      break;
+    case ExtensionKind::kSensorDynamics:
+      s = {{2e-3, 0.7}, {1e-3, 0.3}, {5e-3, 1.0}, {5e-3, 0.3}};
+      break;
+    case ExtensionKind::kDriveDamping: s = {{1.0}, {20.0}}; break;
+    case ExtensionKind::kNone: break;
+  }
+  return s;
+}
+
+void significance(std::vector<CandFit>& cands, double sse0, double rmse0_held,
+                  const DiagnoseOptions& o) {
+  using boost::math::chi_squared;
+  std::vector<std::size_t> order;
+  for (std::size_t i = 0; i < cands.size(); ++i) {
+    CandidateResult& c = cands[i].res;
+    c.significant = false;
+    c.p_holm = 1;
+    if (c.status != "ok") { c.p_value = 1; continue; }
+    c.lr = cands[i].sse_fit < sse0 ? cands[i].n_eff * std::log(sse0 / cands[i].sse_fit) : 0.0;
+    c.p_value = c.lr > 0 ? boost::math::cdf(boost::math::complement(chi_squared(c.dof), c.lr)) : 1.0;
+    c.gain = 1.0 - c.rmse_heldout / rmse0_held;
+    order.push_back(i);
+  }
+  std::sort(order.begin(), order.end(),
+            [&](std::size_t a, std::size_t b) { return cands[a].res.p_value < cands[b].res.p_value; });
+  const double m = static_cast<double>(cands.size());
+  double running = 0;
+  for (std::size_t r = 0; r < order.size(); ++r) {
+    CandidateResult& c = cands[order[r]].res;
+    running = std::max(running, std::min(1.0, (m - static_cast<double>(r)) * c.p_value));
+    c.p_holm = running;
+    c.significant = c.p_holm < o.alpha && c.gain >= o.min_gain;
+  }
+}
+
+}  // namespace
+
+Diagnosis diagnose(const MeasuredDataset& data, const DiagnoseOptions& o) {
+  const auto t_start = std::chrono::steady_clock::now();
+  if (std::string why; !o.IsValid(&why)) throw std::invalid_argument(why);
+  if (data.runs.empty()) throw std::invalid_argument("runs: the dataset has no runs");
+  const Problem P = make_problem(data, o);
+  Diagnosis d;
+  d.dataset = data.name;
+  d.options = o;
+  for (const auto& r : P.runs) {
+    d.run_names.push_back(r.name);
+    d.run_va.push_back(r.cond.va);
+  }
+  const int threads = o.threads > 0 ? o.threads : omp_get_max_threads();
+
+  // Data-driven starting values from the measured first stage of every run.
+  double mean_sum = 0, amp_sum = 0;
+  int n_st = 0;
+  for (const auto& r : P.runs) {
+    const double t1 = r.stage_start.size() > 1 ? r.stage_start[1] : r.cond.duration;
+    StageAccumulator acc(0.0, t1, MetricOptions{});
+    for (std::size_t i = 0; i < r.t.size() && r.t[i] <= t1; ++i) acc.sample(r.t[i], r.y[i], r.y[i]);
+    const StageMetrics m = acc.finish();
+    mean_sum += m.mean_force;
+    amp_sum += m.amplitude;
+    ++n_st;
+  }
+  const double F_C0 = mean_sum / n_st, F_S0 = F_C0 + 0.5 * amp_sum / n_st;
+
+  // 1. Calibrate every base model.
+  std::vector<BaseFit> bases(o.models.size());
+#pragma omp parallel for schedule(dynamic, 1) num_threads(threads)
+  for (std::size_t i = 0; i < o.models.size(); ++i) {
+    try {
+      bases[i] = calibrate(P, o.models[i], F_C0, F_S0, o, nullptr);
+    } catch (const std::exception& e) {
+      bases[i].cal.model = o.models[i];
+      bases[i].cal.status = std::string("failed: ") + e.what();
+    }
+  }
+  int best = -1;
+  for (std::size_t i = 0; i < bases.size(); ++i) {
+    d.evaluations += bases[i].cal.evals;
+    if (bases[i].cal.status == "ok" && std::isfinite(bases[i].cal.rmse_heldout) &&
+        (best < 0 || bases[i].cal.rmse_heldout < bases[best].cal.rmse_heldout))
+      best = static_cast<int>(i);
+  }
+  if (best < 0) throw std::runtime_error("no base model could be calibrated: " + bases[0].cal.status);
+  BaseFit base = bases[best];
+
+  // 2. Evidence from the best base model's residuals.
+  auto evidence_of = [&](const BaseFit& b) {
+    Evidence ev;
+    std::vector<double> res, xs, vs, stick;
+    for (std::size_t k = 0; k < P.runs.size(); ++k) {
+      const RunData& r = P.runs[k];
+      const RunSim& s = b.full.sims[k];
+      double last_slide = 0;
+      for (std::size_t i = 0; i < s.F.size(); ++i) {
+        if (std::fabs(s.v[i]) > 1e-4) last_slide = r.t[i];
+        res.push_back(r.y[i] - s.F[i] - b.full.offset);
+        xs.push_back(s.x[i]);
+        vs.push_back(s.v[i]);
+        stick.push_back(r.t[i] - last_slide);
+      }
+      for (std::size_t j = 0; j < r.stage_start.size(); ++j) {
+        double sum = 0;
+        int n = 0;
+        for (std::size_t i = 0; i < s.F.size(); ++i)
+          if (r.stage[i] == static_cast<int>(j)) { sum += r.y[i] - s.F[i] - b.full.offset; ++n; }
+        ev.stage_mean_residual.push_back(n ? sum / n : kNaN);
+        ev.stage_va.push_back(j == 0 && r.stage_start.size() > 1 ? 0.0 : r.cond.va);
+      }
+    }
+    double ss = 0;
+    for (double r : res) ss += r * r;
+    ev.residual_rms = rms(ss, res.size());
+    ev.rho = lag1(P, b.full);
+    ev.n = static_cast<double>(b.n_fit);
+    ev.n_eff = std::max(ev.n * (1 - ev.rho) / (1 + ev.rho), 10.0);
+    ev.corr_velocity = corr(res, vs);
+    ev.corr_position = corr(res, xs);
+    ev.corr_stick_time = corr(res, stick);
+    {
+      const double mx = std::accumulate(xs.begin(), xs.end(), 0.0) / xs.size();
+      double sxy = 0, sxx = 0;
+      for (std::size_t i = 0; i < xs.size(); ++i) {
+        sxy += (xs[i] - mx) * res[i];
+        sxx += (xs[i] - mx) * (xs[i] - mx);
+      }
+      ev.trend_per_m = sxx > 0 ? sxy / sxx : 0;
+    }
+    ev.stages = b.cal.stages;
+    return std::make_pair(ev, scan_wavelengths(res, xs));
+  };
+  auto [ev, scan] = evidence_of(base);
+  {
+    std::size_t imax = 0;
+    for (std::size_t i = 0; i < scan.amplitude.size(); ++i)
+      if (scan.amplitude[i] > scan.amplitude[imax]) imax = i;
+    std::vector<double> pw;
+    for (double a : scan.amplitude) pw.push_back(a * a);
+    std::nth_element(pw.begin(), pw.begin() + pw.size() / 2, pw.end());
+    ev.wavelength = scan.lambda[imax];
+    ev.wavelength_amplitude = scan.amplitude[imax];
+    ev.wavelength_phase = scan.phase[imax];
+    ev.wavelength_ratio = pw[pw.size() / 2] > 0 ? scan.amplitude[imax] * scan.amplitude[imax] / pw[pw.size() / 2] : 0;
+  }
+  {
+    int ev_evals = 0;
+    const auto se = standard_errors(P, base.model, base.theta, ev.n / ev.n_eff, &ev_evals);
+    d.evaluations += ev_evals;
+    base.cal.params = estimates(base.model, base.theta, se, 0, base.theta.size());
+  }
+  for (std::size_t i = 0; i < bases.size(); ++i) {
+    if (static_cast<int>(i) == best) bases[i].cal.params = base.cal.params;
+    else if (bases[i].cal.status == "ok")
+      bases[i].cal.params = estimates(bases[i].model, bases[i].theta, {}, 0, bases[i].theta.size());
+  }
+
+  // 3. Every candidate extension on the best base, base parameters refitted.
+  const std::size_t nb = base.theta.size();
+  std::vector<CandFit> cands(o.candidates.size());
+#pragma omp parallel for schedule(dynamic, 1) num_threads(threads)
+  for (std::size_t i = 0; i < o.candidates.size(); ++i) {
+    CandFit& c = cands[i];
+    c.res.kind = o.candidates[i];
+    try {
+      c.model = base.model;
+      c.model.base.extension.kind = o.candidates[i];
+      const auto ext = extension_specs(o.candidates[i]);
+      c.model.specs.insert(c.model.specs.end(), ext.begin(), ext.end());
+      c.res.dof = static_cast<int>(ext.size());
+      std::vector<std::vector<double>> starts;
+      for (const auto& es : extension_starts(o.candidates[i], ext, ev, scan, F_C0)) {
+        std::vector<double> th = base.theta;
+        th.insert(th.end(), es.begin(), es.end());
+        starts.push_back(th);
+      }
+      const FitResult fr = fit(P, c.model, starts, Span::kFit, 0, o.max_evals_candidate);
+      c.res.evals = fr.evals;
+      if (!fr.ok) throw std::runtime_error(fr.reason);
+      c.theta = fr.theta;
+      c.full = evaluate(P, c.model, c.theta, Span::kFull, 0);
+      ++c.res.evals;
+      if (!c.full.ok) throw std::runtime_error(c.full.reason);
+      c.sse_fit = c.full.sse_fit;
+      c.res.offset = c.full.offset;
+      c.res.rmse_fit = rms(c.full.sse_fit, c.full.n_fit);
+      c.res.rmse_heldout = rms(c.full.sse_held, c.full.n_held);
+      const double rho = lag1(P, c.full);
+      c.n_eff = std::max(static_cast<double>(c.full.n_fit) * (1 - rho) / (1 + rho), 10.0);
+      c.res.aic = c.n_eff * std::log(c.full.sse_fit / c.full.n_fit) + 2.0 * c.theta.size();
+      const auto se = standard_errors(P, c.model, c.theta, c.full.n_fit / c.n_eff, &c.res.evals);
+      c.res.base_params = estimates(c.model, c.theta, se, 0, nb);
+      c.res.params = estimates(c.model, c.theta, se, nb, c.theta.size());
+    } catch (const std::exception& e) {
+      c.res.status = std::string("failed: ") + e.what();
+    }
+  }
+  for (const auto& c : cands) d.evaluations += c.res.evals;
+  base.cal.aic = ev.n_eff * std::log(base.sse_fit / base.n_fit) + 2.0 * nb;
+  significance(cands, base.sse_fit, base.cal.rmse_heldout, o);
+
+  // 4. An extension must beat a fully refitted base: refit the base from each significant
+  //    candidate's base parameters; a better base replaces the null and the tests are redone.
+  for (std::size_t i = 0; i < cands.size(); ++i) {
+    if (!cands[i].res.significant) continue;
+    std::vector<double> start(cands[i].theta.begin(), cands[i].theta.begin() + nb);
+    BaseFit polished = calibrate(P, base.cal.model, F_C0, F_S0, o, &start);
+    d.evaluations += polished.cal.evals;
+    if (polished.cal.status == "ok" && polished.sse_fit < base.sse_fit) {
+      polished.cal.params = estimates(polished.model, polished.theta, {}, 0, nb);
+      polished.cal.evals += base.cal.evals;
+      base = polished;
+      bases[best] = base;
+      base.cal.aic = ev.n_eff * std::log(base.sse_fit / base.n_fit) + 2.0 * nb;
+      significance(cands, base.sse_fit, base.cal.rmse_heldout, o);
+    }
+  }
+
+  // 5. Name the cause.
+  d.base_model = base.cal.model;
+  d.base_params = base.cal.params;
+  d.rmse_base_heldout = base.cal.rmse_heldout;
+  int cause = -1, best_c = -1;
+  for (std::size_t i = 0; i < cands.size(); ++i) {
+    const auto& c = cands[i].res;
+    if (c.status != "ok") continue;
+    if (best_c < 0 || c.rmse_heldout < cands[best_c].res.rmse_heldout) best_c = static_cast<int>(i);
+    if (c.significant && (cause < 0 || c.rmse_heldout < cands[cause].res.rmse_heldout))
+      cause = static_cast<int>(i);
+  }
+  if (best_c >= 0) d.best_candidate = to_string(cands[best_c].res.kind);
+  if (cause >= 0) {
+    d.cause = to_string(cands[cause].res.kind);
+    d.rmse_extended_heldout = cands[cause].res.rmse_heldout;
+  } else {
+    d.cause = "none";
+    d.rmse_extended_heldout = d.rmse_base_heldout;
+  }
+  d.gain = 1.0 - d.rmse_extended_heldout / d.rmse_base_heldout;
+  for (auto& b : bases) d.calibrations.push_back(b.cal);
+  for (auto& c : cands) d.candidates.push_back(c.res);
+  ev.stages = base.cal.stages;
+  d.evidence = ev;
+  if (o.keep_traces) {
+    const int shown = cause >= 0 ? cause : best_c;
+    for (std::size_t k = 0; k < P.runs.size(); ++k) {
+      RunSeries s;
+      s.name = P.runs[k].name;
+      s.t = P.runs[k].t;
+      s.measured = P.runs[k].y;
+      for (double F : base.full.sims[k].F) s.base.push_back(F + base.full.offset);
+      if (shown >= 0 && cands[shown].full.ok)
+        for (double F : cands[shown].full.sims[k].F) s.extended.push_back(F + cands[shown].full.offset);
+      d.series.push_back(std::move(s));
+    }
+  }
+  d.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
+  return d;
+}
+
+}  // namespace stickslip::studies

@@ -1,0 +1,377 @@
+#include "diagnose_fit.h"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <nlopt.hpp>
+#include <stdexcept>
+
+#include "stickslip/engine/metrics.h"
+#include "stickslip/engine/simulate.h"
+
+namespace stickslip::studies::diag {
+
+double ParamSpec::to_value(double u) const {
+  u = std::clamp(u, 0.0, 1.0);
+  return log ? std::exp(std::log(lo) + u * (std::log(hi) - std::log(lo))) : lo + u * (hi - lo);
+}
+double ParamSpec::to_unit(double v) const {
+  v = std::clamp(v, lo, hi);
+  return log ? (std::log(v) - std::log(lo)) / (std::log(hi) - std::log(lo)) : (v - lo) / (hi - lo);
+}
+double ParamSpec::dvalue_du(double u) const {
+  return log ? to_value(u) * (std::log(hi) - std::log(lo)) : hi - lo;
+}
+
+SimConfig FitModel::config(const RunData& run, const std::vector<double>& theta, double t_end,
+                           double rtol) const {
+  SimConfig c = base;
+  apply_conditions(run.cond, c);
+  double ratio = -1;
+  for (std::size_t i = 0; i < specs.size(); ++i) {
+    if (specs[i].name == "F_C/F_S") ratio = theta[i];
+    else set_parameter(c, specs[i].name, theta[i]);
+  }
+  if (ratio > 0) c.friction.F_C = ratio * c.friction.F_S;
+  // Keep only [0, t_end].
+  std::vector<Stage> st;
+  double t = 0;
+  for (const Stage& s : c.stages) {
+    if (t >= t_end) break;
+    Stage k = s;
+    k.duration = std::min(s.duration, t_end - t);
+    st.push_back(k);
+    t += s.duration;
+  }
+  c.stages = st;
+  c.integrator.kind = IntegratorKind::kAdaptive;
+  c.integrator.rtol = rtol;
+  c.integrator.atol = rtol;
+  c.trace.rate = 4000.0;
+  return c;
+}
+
+Problem make_problem(const MeasuredDataset& data, const DiagnoseOptions& o) {
+  Problem p;
+  p.rtol = o.rtol;
+  p.fit_offset = o.fit_offset;
+  for (const MeasuredRun& mr : data.runs) {
+    RunData r;
+    r.name = mr.name;
+    r.cond = mr.conditions;
+    if (mr.t.size() < 2) throw std::invalid_argument("run " + mr.name + ": too few samples");
+    std::vector<double> dt(mr.t.size() - 1);
+    for (std::size_t i = 1; i < mr.t.size(); ++i) dt[i - 1] = mr.t[i] - mr.t[i - 1];
+    std::nth_element(dt.begin(), dt.begin() + dt.size() / 2, dt.end());
+    const double dt_med = dt[dt.size() / 2];
+    const std::size_t step =
+        std::max<std::size_t>(1, static_cast<std::size_t>(std::lround(1.0 / (o.fit_rate * dt_med))));
+    SimConfig c;
+    apply_conditions(r.cond, c);
+    double t0 = 0;
+    std::vector<std::pair<double, double>> stages;
+    for (const Stage& s : c.stages) {
+      stages.emplace_back(t0, t0 + s.duration);
+      r.stage_start.push_back(t0);
+      t0 += s.duration;
+    }
+    for (std::size_t i = 0; i < mr.t.size(); i += step) {
+      const double t = mr.t[i];
+      if (t > r.cond.duration) break;
+      int j = 0;
+      while (j + 1 < static_cast<int>(stages.size()) && t >= stages[j + 1].first) ++j;
+      const double s = stages[j].first, d = stages[j].second - s;
+      const double held_from = s + (1.0 - o.holdout_fraction) * d;
+      std::uint8_t role = kUnused;
+      if (t >= held_from) role = kHeld;
+      else if (j == 0 || t < s + o.later_stage_fit_span) role = kFit;
+      r.t.push_back(t);
+      r.y.push_back(mr.Fd[i]);
+      r.role.push_back(role);
+      r.stage.push_back(j);
+      if (role == kFit) r.fit_end = std::max(r.fit_end, t);
+    }
+    p.runs.push_back(std::move(r));
+  }
+  return p;
+}
+
+namespace {
+
+double span_end(const RunData& r, Span span, double short_end) {
+  switch (span) {
+    case Span::kShort: return std::min(short_end, r.fit_end) + 1e-3;
+    case Span::kFit:
+    case Span::kFeatures: return r.fit_end + 1e-3;
+    case Span::kFull: return r.cond.duration;
+  }
+  return r.cond.duration;
+}
+
+bool counts(const RunData& r, std::size_t i, Span span, double short_end) {
+  if (r.role[i] != kFit) return false;
+  return span != Span::kShort || r.t[i] < short_end;
+}
+
+}  // namespace
+
+Evaluation evaluate(const Problem& p, const FitModel& m, const std::vector<double>& theta,
+                    Span span, double short_end) {
+  Evaluation e;
+  e.sims.resize(p.runs.size());
+  for (std::size_t k = 0; k < p.runs.size(); ++k) {
+    const RunData& r = p.runs[k];
+    const double t_end = span_end(r, span, short_end);
+    SimConfig cfg;
+    try {
+      cfg = m.config(r, theta, t_end, p.rtol);
+    } catch (const std::exception& ex) {
+      e.reason = ex.what();
+      return e;
+    }
+    const SimResult res = simulate(cfg);
+    RunSim& s = e.sims[k];
+    if (res.status != RunStatus::kOk || res.trace.size() < 2) {
+      e.reason = "run " + r.name + ": " + to_string(res.status) + " " + res.reason;
+      return e;
+    }
+    // Linear interpolation of the trace at the sample times.
+    std::size_t j = 0;
+    for (std::size_t i = 0; i < r.t.size() && r.t[i] <= t_end; ++i) {
+      while (j + 2 < res.trace.size() && res.trace[j + 1].t < r.t[i]) ++j;
+      const TraceSample &a = res.trace[j], &b = res.trace[j + 1];
+      const double w = b.t > a.t ? std::clamp((r.t[i] - a.t) / (b.t - a.t), 0.0, 1.0) : 0.0;
+      s.F.push_back(a.F_d + w * (b.F_d - a.F_d));
+      s.x.push_back(a.x + w * (b.x - a.x));
+      s.v.push_back(a.v + w * (b.v - a.v));
+    }
+    s.ok = true;
+  }
+  double sum = 0;
+  std::size_t n = 0;
+  for (std::size_t k = 0; k < p.runs.size(); ++k)
+    for (std::size_t i = 0; i < e.sims[k].F.size(); ++i)
+      if (counts(p.runs[k], i, span, short_end)) {
+        sum += p.runs[k].y[i] - e.sims[k].F[i];
+        ++n;
+      }
+  e.offset = (p.fit_offset && n > 0) ? sum / static_cast<double>(n) : 0.0;
+  for (std::size_t k = 0; k < p.runs.size(); ++k) {
+    const RunData& r = p.runs[k];
+    for (std::size_t i = 0; i < e.sims[k].F.size(); ++i) {
+      const double res = r.y[i] - e.sims[k].F[i] - e.offset;
+      if (counts(r, i, span, short_end)) {
+        e.sse_fit += res * res;
+        ++e.n_fit;
+      } else if (span == Span::kFull && r.role[i] == kHeld) {
+        e.sse_held += res * res;
+        ++e.n_held;
+      }
+    }
+  }
+  if (span == Span::kFeatures) {
+    // Per run and stage: mean, cycle amplitude and period (as the force rise over one period,
+    // k_d v_d T) of the fitted part, measured against simulated.
+    double sse = 0;
+    for (std::size_t k = 0; k < p.runs.size(); ++k) {
+      const RunData& r = p.runs[k];
+      for (std::size_t j = 0; j < r.stage_start.size(); ++j) {
+        MetricOptions mo;
+        mo.settle_fraction = 0.0;
+        const double t0 = r.stage_start[j] + (j == 0 ? 0.5 : 0.3);  // skip the start transient
+        const double t1 = std::min(j + 1 < r.stage_start.size() ? r.stage_start[j + 1] : r.cond.duration, r.fit_end);
+        if (t1 <= t0) continue;
+        StageAccumulator am(t0, t1, mo), as(t0, t1, mo);
+        for (std::size_t i = 0; i < e.sims[k].F.size(); ++i) {
+          if (r.role[i] != kFit || r.t[i] < t0 || r.t[i] > t1) continue;
+          am.sample(r.t[i], r.y[i], 0);
+          as.sample(r.t[i], e.sims[k].F[i], 0);
+        }
+        const StageMetrics a = am.finish(), b = as.finish();
+        const double rise = r.cond.kd * r.cond.vd;
+        const double d_mean = a.mean_force - b.mean_force;
+        const double d_amp = a.amplitude - b.amplitude;
+        const double d_per = rise * (a.mean_period - b.mean_period);
+        sse += d_mean * d_mean + d_amp * d_amp + d_per * d_per;
+      }
+    }
+    e.sse_fit = sse;
+  }
+  e.ok = e.n_fit > 0;
+  if (!e.ok && e.reason.empty()) e.reason = "no fit samples";
+  return e;
+}
+
+std::vector<double> fit_residuals(const Problem& p, const Evaluation& e, Span span,
+                                  double short_end) {
+  std::vector<double> out;
+  for (std::size_t k = 0; k < p.runs.size(); ++k)
+    for (std::size_t i = 0; i < e.sims[k].F.size(); ++i)
+      if (counts(p.runs[k], i, span, short_end))
+        out.push_back(p.runs[k].y[i] - e.sims[k].F[i] - e.offset);
+  return out;
+}
+
+namespace {
+
+struct Ctx {
+  const Problem* p;
+  const FitModel* m;
+  Span span;
+  double short_end;
+  int evals = 0;
+  int max_evals;
+  std::vector<double> best_u;
+  double best = std::numeric_limits<double>::infinity();
+  std::string last_reason;
+};
+
+std::vector<double> to_theta(const FitModel& m, const std::vector<double>& u) {
+  std::vector<double> th(u.size());
+  for (std::size_t i = 0; i < u.size(); ++i) th[i] = m.specs[i].to_value(u[i]);
+  return th;
+}
+
+double objective(unsigned n, const double* u, double* /*grad*/, void* data) {
+  Ctx& c = *static_cast<Ctx*>(data);
+  std::vector<double> uu(u, u + n);
+  ++c.evals;
+  const Evaluation e = evaluate(*c.p, *c.m, to_theta(*c.m, uu), c.span, c.short_end);
+  if (!e.ok) {
+    c.last_reason = e.reason;
+    return 1e12;
+  }
+  if (e.sse_fit < c.best) {
+    c.best = e.sse_fit;
+    c.best_u = uu;
+  }
+  return e.sse_fit;
+}
+
+}  // namespace
+
+FitResult fit(const Problem& p, const FitModel& m, const std::vector<std::vector<double>>& starts,
+              Span span, double short_end, int max_evals) {
+  Ctx c{&p, &m, span, short_end, 0, max_evals, {}, std::numeric_limits<double>::infinity(), {}};
+  const unsigned n = static_cast<unsigned>(m.specs.size());
+  for (const auto& th : starts) {
+    std::vector<double> u(n);
+    for (unsigned i = 0; i < n; ++i) u[i] = m.specs[i].to_unit(th[i]);
+    objective(n, u.data(), nullptr, &c);
+  }
+  FitResult out;
+  if (c.best_u.empty()) {
+    out.reason = "no starting point could be simulated: " + c.last_reason;
+    out.evals = c.evals;
+    return out;
+  }
+  const int left = max_evals - c.evals;
+  if (left > 2 * static_cast<int>(n)) {
+    nlopt::opt opt(n >= 2 ? nlopt::LN_BOBYQA : nlopt::LN_COBYLA, n);
+    opt.set_lower_bounds(std::vector<double>(n, 0.0));
+    opt.set_upper_bounds(std::vector<double>(n, 1.0));
+    opt.set_min_objective(objective, &c);
+    opt.set_maxeval(left);
+    opt.set_xtol_abs(1e-4);
+    opt.set_ftol_rel(1e-7);
+    opt.set_initial_step(std::vector<double>(n, 0.01));  // unit box: 1 % of a range
+    std::vector<double> x = c.best_u;
+    double f = 0;
+    try {
+      opt.optimize(x, f);
+    } catch (const std::exception&) {
+      // roundoff-limited or forced stop: keep the best point seen
+    }
+  }
+  out.theta = to_theta(m, c.best_u);
+  out.sse = c.best;
+  out.evals = c.evals;
+  out.ok = std::isfinite(c.best);
+  return out;
+}
+
+std::vector<double> standard_errors(const Problem& p, const FitModel& m,
+                                    const std::vector<double>& theta, double n_over_neff,
+                                    int* evals) {
+  const std::size_t k = theta.size();
+  std::vector<double> out(k, std::numeric_limits<double>::quiet_NaN());
+  const Evaluation e0 = evaluate(p, m, theta, Span::kFit, 0);
+  ++*evals;
+  if (!e0.ok) return out;
+  const std::vector<double> r0 = fit_residuals(p, e0, Span::kFit, 0);
+  const std::size_t n = r0.size();
+  if (n <= k + 1) return out;
+  Eigen::MatrixXd J(n, k);
+  std::vector<double> u(k);
+  for (std::size_t j = 0; j < k; ++j) u[j] = m.specs[j].to_unit(theta[j]);
+  for (std::size_t j = 0; j < k; ++j) {
+    const double h = u[j] > 0.99 ? -1e-3 : 1e-3;
+    std::vector<double> th = theta;
+    th[j] = m.specs[j].to_value(u[j] + h);
+    const Evaluation e = evaluate(p, m, th, Span::kFit, 0);
+    ++*evals;
+    if (!e.ok) return out;
+    const std::vector<double> r = fit_residuals(p, e, Span::kFit, 0);
+    if (r.size() != n) return out;
+    for (std::size_t i = 0; i < n; ++i) J(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j)) = (r[i] - r0[i]) / h;
+  }
+  double sse = 0;
+  for (double r : r0) sse += r * r;
+  const double s2 = sse / static_cast<double>(n - k);
+  const Eigen::MatrixXd JtJ = J.transpose() * J;
+  Eigen::JacobiSVD<Eigen::MatrixXd> svd(JtJ, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  const auto& sv = svd.singularValues();
+  if (sv(0) <= 0 || sv(sv.size() - 1) < 1e-12 * sv(0)) return out;  // not identifiable
+  const Eigen::MatrixXd cov = svd.solve(Eigen::MatrixXd::Identity(k, k)) * s2 * n_over_neff;
+  for (std::size_t j = 0; j < k; ++j)
+    out[j] = std::sqrt(std::max(0.0, cov(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(j)))) *
+             std::fabs(m.specs[j].dvalue_du(u[j]));
+  return out;
+}
+
+std::vector<ParamSpec> base_specs(ModelKind m, double F_C0, double F_S0) {
+  F_C0 = std::clamp(F_C0, 0.5, 50.0);
+  F_S0 = std::clamp(std::max(F_S0, F_C0 * 1.01), 0.6, 60.0);
+  const double ratio0 = std::clamp(F_C0 / F_S0, 0.31, 0.999);
+  const double k_t = FrictionParams{}.k_t;
+  switch (m) {
+    case ModelKind::kDahl:
+      return {{"F_C", 0.3, 60.0, true, F_C0},
+              {"k_t", 1e5, 1e9, true, k_t},
+              {"kappa", 0.2, 5.0, true, 1.0}};
+    case ModelKind::kKarnopp:
+      return {{"F_S", 0.5, 60.0, true, F_S0}, {"F_C/F_S", 0.3, 1.0, false, ratio0}};
+    case ModelKind::kResetIntegrator:
+      return {{"s0", 5e-9, 1e-5, true, F_C0 / k_t},
+              {"alpha", 1e-3, 3.0, true, std::clamp(F_S0 / F_C0 - 1.0, 2e-3, 2.5)}};
+    case ModelKind::kLuGre:
+      return {{"F_S", 0.5, 60.0, true, F_S0},
+              {"F_C/F_S", 0.3, 1.0, false, ratio0},
+              {"v_s", 2e-5, 1e-2, true, 3.5e-4}};
+  }
+  return {};
+}
+
+std::vector<ParamSpec> extension_specs(ExtensionKind k) {
+  switch (k) {
+    case ExtensionKind::kViscous: return {{"sigma2", 0.0, 2000.0, false, 0.0}};
+    case ExtensionKind::kStribeckShape: return {{"stribeck_delta", 0.3, 8.0, true, 2.0}};
+    case ExtensionKind::kDwellTime:
+      return {{"dwell_A", 0.0, 3.0, false, 0.05}, {"dwell_tau", 1e-3, 10.0, true, 0.1}};
+    case ExtensionKind::kWaviness:
+      return {{"waviness_eps", 0.0, 0.3, false, 0.01},
+              {"waviness_lambda", 2e-4, 2e-2, true, 2e-3},
+              {"waviness_phi", -2 * M_PI, 2 * M_PI, false, 0.0}};
+    case ExtensionKind::kDrift: return {{"drift_gamma", -40.0, 40.0, false, 0.0}};
+    case ExtensionKind::kNormalLoadModulation:
+      return {{"load_eta", 0.0, 0.8, false, 0.05}, {"load_phi", -2 * M_PI, 2 * M_PI, false, 0.0}};
+    case ExtensionKind::kSensorDynamics:
+      return {{"sensor_tau", 2e-4, 0.05, true, 2e-3}, {"sensor_zeta", 0.05, 3.0, true, 0.7}};
+    case ExtensionKind::kDriveDamping: return {{"c_d", 0.0, 300.0, false, 1.0}};
+    case ExtensionKind::kNone: break;
+  }
+  return {};
+}
+
+}  // namespace stickslip::studies::diag

@@ -1,0 +1,108 @@
+#pragma once
+// Internal to the diagnosis: the fitting problem (decimated samples with fit / held-out roles),
+// the parameterisation of models and extensions, objective evaluation and the NLopt driver.
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "stickslip/engine/params.h"
+#include "stickslip/studies/diagnose.h"
+#include "stickslip/studies/measured.h"
+
+namespace stickslip::studies::diag {
+
+enum Role : std::uint8_t { kUnused = 0, kFit = 1, kHeld = 2 };
+
+struct RunData {
+  std::string name;
+  MeasuredConditions cond;
+  std::vector<double> t, y;          ///< decimated measured samples [s], [N]
+  std::vector<std::uint8_t> role;    ///< Role per sample
+  std::vector<int> stage;            ///< stage index per sample
+  std::vector<double> stage_start;   ///< [s]
+  double fit_end = 0;                ///< last fitted time [s]
+};
+
+struct Problem {
+  std::vector<RunData> runs;
+  double rtol = 1e-5;
+  bool fit_offset = true;
+};
+
+/// One scalar parameter in the unit box: u in [0, 1] maps to [lo, hi] linearly or in log.
+struct ParamSpec {
+  std::string name;  ///< engine parameter name, or "F_C/F_S" (ratio, applied after F_S)
+  double lo, hi;
+  bool log;
+  double init;
+  double to_value(double u) const;
+  double to_unit(double v) const;
+  double dvalue_du(double u) const;
+};
+
+/// A model to fit: base model + extension, the fitted parameters and the fixed rest.
+struct FitModel {
+  SimConfig base;  ///< model kind, friction parameters (fixed ones), extension kind
+  std::vector<ParamSpec> specs;
+  /// Configuration for a run with parameters theta (SI values, one per spec).
+  SimConfig config(const RunData& run, const std::vector<double>& theta, double t_end,
+                   double rtol) const;
+};
+
+/// Simulated signals at a run's samples.
+struct RunSim {
+  bool ok = false;
+  std::string reason;
+  std::vector<double> F, x, v;  ///< at the samples up to t_end (F_d [N], x [m], x' [m/s])
+};
+
+/// kShort: fit samples before short_end; kFit: all fit samples; kFull: every sample (held-out
+/// scored too); kFeatures: like kFit, but the score is the per-stage cycle features (mean,
+/// amplitude, period) of the fit windows, which do not depend on slip timing.
+enum class Span { kShort, kFit, kFull, kFeatures };
+
+struct Evaluation {
+  bool ok = false;
+  std::string reason;
+  double sse_fit = 0, sse_held = 0, offset = 0;
+  std::size_t n_fit = 0, n_held = 0;
+  std::vector<RunSim> sims;  ///< per run
+};
+
+/// Simulates every run up to the span's end and scores the samples. Short: fit samples with
+/// t < short_end only.
+Evaluation evaluate(const Problem& p, const FitModel& m, const std::vector<double>& theta,
+                    Span span, double short_end);
+
+/// Fit residuals (measured - simulated - offset) in run-major order.
+std::vector<double> fit_residuals(const Problem& p, const Evaluation& e, Span span,
+                                  double short_end);
+
+struct FitResult {
+  std::vector<double> theta;
+  double sse = 0;
+  int evals = 0;
+  bool ok = false;
+  std::string reason;
+};
+
+/// BOBYQA from the best of the starting points, at most max_evals evaluations in all.
+FitResult fit(const Problem& p, const FitModel& m, const std::vector<std::vector<double>>& starts,
+              Span span, double short_end, int max_evals);
+
+/// Standard errors (SI) from the finite-difference Jacobian, inflated by n / n_eff.
+std::vector<double> standard_errors(const Problem& p, const FitModel& m,
+                                    const std::vector<double>& theta, double n_over_neff,
+                                    int* evals);
+
+/// Parameter specs of the base models, with data-driven starting values (F_C0: stage-1 mean,
+/// F_S0: mean + amplitude / 2).
+std::vector<ParamSpec> base_specs(ModelKind m, double F_C0, double F_S0);
+/// Parameter specs of an extension.
+std::vector<ParamSpec> extension_specs(ExtensionKind k);
+
+/// Builds the problem from the dataset (decimation and roles).
+Problem make_problem(const MeasuredDataset& data, const DiagnoseOptions& o);
+
+}  // namespace stickslip::studies::diag
