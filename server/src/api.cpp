@@ -70,32 +70,6 @@ bool same_token(std::string_view a, std::string_view b) {
   return diff == 0;
 }
 
-/// Deepest nesting of arrays and objects in JSON text (strings skipped). Checked before parsing:
-/// the parser and the schema validator recurse per level, so a body of a million '[' would
-/// otherwise overflow the stack of a handler thread and kill the server.
-std::size_t json_depth(std::string_view text, std::size_t stop_at) {
-  std::size_t depth = 0, deepest = 0;
-  bool in_string = false;
-  for (std::size_t i = 0; i < text.size(); ++i) {
-    const char c = text[i];
-    if (in_string) {
-      if (c == '\\') ++i;
-      else if (c == '"') in_string = false;
-      continue;
-    }
-    if (c == '"') in_string = true;
-    else if (c == '[' || c == '{') {
-      deepest = std::max(deepest, ++depth);
-      if (deepest > stop_at) return deepest;
-    } else if ((c == ']' || c == '}') && depth > 0) {
-      --depth;
-    }
-  }
-  return deepest;
-}
-
-/// Far deeper than any study needs (about 6 levels), far shallower than a stack can hold.
-constexpr std::size_t kMaxJsonDepth = 64;
 
 bool is_json_content_type(const std::string& value) {
   std::string_view v = value;
@@ -254,11 +228,11 @@ Response Api::create_study(const Request& r) const {
                      instance);
     }
   }
-  if (json_depth(r.body, kMaxJsonDepth) > kMaxJsonDepth) {
+  if (studies::json_nesting_depth(r.body) > studies::kMaxJsonDepth) {
     return problem(400, "malformed-json", "Malformed JSON",
                    "the request body nests arrays and objects more than " +
-                       std::to_string(kMaxJsonDepth) + " levels deep",
-                   {FieldError::body("", "nesting deeper than " + std::to_string(kMaxJsonDepth) +
+                       std::to_string(studies::kMaxJsonDepth) + " levels deep",
+                   {FieldError::body("", "nesting deeper than " + std::to_string(studies::kMaxJsonDepth) +
                                              " levels")},
                    instance);
   }

@@ -467,7 +467,35 @@ std::string pointer_append(std::string_view pointer, std::size_t index) {
   return pointer_append(pointer, std::to_string(index));
 }
 
+std::size_t json_nesting_depth(std::string_view text, std::size_t stop_at) {
+  std::size_t depth = 0, deepest = 0;
+  bool in_string = false;
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    const char c = text[i];
+    if (in_string) {
+      if (c == '\\') ++i;
+      else if (c == '"') in_string = false;
+      continue;
+    }
+    if (c == '"') {
+      in_string = true;
+    } else if (c == '[' || c == '{') {
+      deepest = std::max(deepest, ++depth);
+      if (deepest > stop_at) return deepest;
+    } else if ((c == ']' || c == '}') && depth > 0) {
+      --depth;
+    }
+  }
+  return deepest;
+}
+
 std::optional<nlohmann::json> parse_json(std::string_view text, std::vector<SpecError>* errors) {
+  if (json_nesting_depth(text) > kMaxJsonDepth) {
+    if (errors != nullptr)
+      errors->push_back({"", "arrays and objects are nested more than " +
+                                 std::to_string(kMaxJsonDepth) + " levels deep"});
+    return std::nullopt;
+  }
   struct Frame {
     bool is_object;
     std::set<std::string> keys;

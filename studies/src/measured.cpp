@@ -164,6 +164,9 @@ MeasuredDataset load_measured(const fs::path& manifest) {
   std::stringstream buffer;
   buffer << in.rdbuf();
   json doc;
+  if (json_nesting_depth(buffer.str()) > kMaxJsonDepth)
+    throw MeasuredError({{"", manifest.string() + ": arrays and objects are nested more than " +
+                                  std::to_string(kMaxJsonDepth) + " levels deep"}});
   try {
     doc = json::parse(buffer.str());
   } catch (const json::parse_error& e) {

@@ -138,6 +138,9 @@ TEST_F(Measured, ManifestSchemaErrorsCarryPointersAndAllAreReported) {
   write("m.json", "{\"name\": ");
   const std::string e = only_error();
   EXPECT_NE(e.find("malformed JSON"), std::string::npos) << e;
+  write("m.json", std::string(200000, '['));  // would overflow the parser's recursion
+  const std::string deep = only_error();
+  EXPECT_NE(deep.find("nested more than 64 levels"), std::string::npos) << deep;
 }
 
 TEST(MeasuredConditionsTest, ApplyAndMatchFollowTheBaseMotion) {

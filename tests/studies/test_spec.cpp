@@ -382,6 +382,19 @@ TEST(SpecErrors, MalformedJsonReportsLineAndColumn) {
   EXPECT_NE(errors[0].message.find("column"), std::string::npos) << errors[0].message;
 }
 
+// A pathologically deep document is an error, not a stack overflow (the parser recurses per
+// level); strings full of brackets do not count as nesting.
+TEST(SpecErrors, DeepNestingIsRejectedBeforeParsing) {
+  const auto errors = errors_of(std::string(200000, '[') + std::string(200000, ']'));
+  ASSERT_EQ(errors.size(), 1u) << to_string(errors);
+  EXPECT_NE(errors[0].message.find("nested more than 64 levels"), std::string::npos)
+      << errors[0].message;
+  EXPECT_EQ(json_nesting_depth(R"({"a": [[1], {"b": "[[[[[[{{{{"}]})"), 3u);
+  const auto fine = parse_study(R"({"name": "x", "description": ")" + std::string(100, '[') +
+                                 R"("})");
+  EXPECT_TRUE(fine.ok()) << to_string(fine.errors);
+}
+
 TEST(SpecErrors, DuplicateKeysAreReported) {
   const auto errors = errors_of(R"({"name": "x", "base": {"m": 1, "m": 2}})");
   ASSERT_EQ(errors.size(), 1u) << to_string(errors);

@@ -42,6 +42,14 @@ std::string pointer_append(std::string_view pointer, std::size_t index);
 /// message with line and column) or duplicate keys (pointer of the duplicate key).
 std::optional<nlohmann::json> parse_json(std::string_view text, std::vector<SpecError>* errors);
 
+/// Deepest nesting parse_json accepts: far deeper than any study or manifest needs (about 6
+/// levels), far shallower than a thread's stack can hold (the parser and the validator recurse
+/// once per level, so a body of a million '[' would otherwise crash the process).
+inline constexpr std::size_t kMaxJsonDepth = 64;
+/// Deepest nesting of arrays and objects in JSON text (strings skipped); stops counting once it
+/// exceeds stop_at. A linear scan, safe on any input.
+std::size_t json_nesting_depth(std::string_view text, std::size_t stop_at = kMaxJsonDepth);
+
 /// A compiled schema, reusable for many documents. Local "$ref"s ("#/$defs/...") only.
 class SchemaValidator {
  public:
