@@ -4,7 +4,7 @@
 //      RunWriter::add/flush over the wall time of the study), traces off;
 //   2. peak RSS of a 10,000-run study with traces off, sampled while it runs, against a
 //      1,000-run study: memory must not grow with the number of runs;
-//   3. convergence of the paper map's metrics: the default adaptive tolerance against
+//   3. convergence of the paper map's metrics: its own tolerance (studies/paper-map.json) against
 //      rtol = atol = 1e-10 on every 5th va_over_vd column.
 // Usage: study_bench [--skip-map] [--skip-memory] [--skip-convergence]
 #include <sys/resource.h>
@@ -119,7 +119,7 @@ void convergence(const fs::path& tmp) {
   doc["integrator"] = {{"kind", "adaptive"}, {"rtol", 1e-10}, {"atol", 1e-10}};
   doc["name"] = "paper-map-tight";
   const StudySpec tight = parse_or_die(doc.dump());
-  std::printf("== convergence of the paper map's metrics: default tolerance vs rtol = atol = "
+  std::printf("== convergence of the paper map's metrics: its tolerance vs rtol = atol = "
               "1e-10, %zu runs\n", coarse.run_count());
   RunnerOptions opt;
   opt.threads = 2;
