@@ -13,44 +13,20 @@
 
 #include <nlohmann/json.hpp>
 
+#include "support/cli_process.h"
+
 namespace {
 
 namespace fs = std::filesystem;
-const std::string kBinary = std::string(STICKSLIP_BINARY_DIR) + "/client/stickslip";
 
 class ReportCli : public ::testing::Test {
  protected:
-  void SetUp() override {
-    std::random_device rd;
-    dir_ = fs::temp_directory_path() /
-           ("stickslip-rcli-" + std::to_string(rd()) + "-" + std::to_string(::getpid()));
-    fs::create_directories(dir_);
-  }
-  void TearDown() override {
-    std::error_code ec;
-    fs::remove_all(dir_, ec);
-  }
-  fs::path write(const std::string& name, const std::string& text) {
-    std::ofstream(dir_ / name, std::ios::binary) << text;
-    return dir_ / name;
-  }
-  static std::string slurp(const fs::path& p) {
-    std::ifstream in(p, std::ios::binary);
-    return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  }
-  struct Result {
-    int code;
-    std::string out, err;
-  };
-  Result run(const std::string& args) {
-    const std::string cmd = "cd '" + dir_.string() + "' && '" + kBinary + "' " + args + " >'" +
-                            (dir_ / "out.txt").string() + "' 2>'" + (dir_ / "err.txt").string() +
-                            "'";
-    const int status = std::system(cmd.c_str());
-    return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, slurp(dir_ / "out.txt"),
-            slurp(dir_ / "err.txt")};
-  }
-  fs::path dir_;
+  using Result = stickslip::testing::CliSandbox::Result;
+  fs::path write(const std::string& name, const std::string& text) { return box_.write(name, text); }
+  Result run(const std::string& args) { return box_.run(args); }
+  static std::string slurp(const fs::path& p) { return stickslip::testing::slurp(p); }
+  stickslip::testing::CliSandbox box_{"stickslip-rcli"};
+  const fs::path& dir_ = box_.dir();
 };
 
 TEST_F(ReportCli, IndicesTableJsonAndExitCodes) {

@@ -19,7 +19,7 @@
 #include <thread>
 
 #include "stickslip/studies/store.h"
-#include "support/temp_dir.h"
+#include "support/cli_process.h"
 
 namespace {
 
@@ -31,28 +31,12 @@ const std::string kBinary = std::string(STICKSLIP_BINARY_DIR) + "/client/sticksl
 
 class StudyCli : public ::testing::Test {
  protected:
-  fs::path write(const std::string& name, const std::string& text) {
-    std::ofstream(dir_ / name, std::ios::binary) << text;
-    return dir_ / name;
-  }
-  static std::string slurp(const fs::path& p) {
-    std::ifstream in(p, std::ios::binary);
-    return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  }
-  struct Result {
-    int code;
-    std::string out, err;
-  };
-  Result run(const std::string& args) {
-    const std::string cmd = "cd '" + dir_.string() + "' && '" + kBinary + "' " + args + " >'" +
-                            (dir_ / "out.txt").string() + "' 2>'" + (dir_ / "err.txt").string() +
-                            "'";
-    const int status = std::system(cmd.c_str());
-    return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, slurp(dir_ / "out.txt"),
-            slurp(dir_ / "err.txt")};
-  }
-  stickslip::testing::TempDir tmp_{"stickslip-cli"};
-  const fs::path& dir_ = tmp_.path();
+  using Result = stickslip::testing::CliSandbox::Result;
+  fs::path write(const std::string& name, const std::string& text) { return box_.write(name, text); }
+  Result run(const std::string& args) { return box_.run(args); }
+  static std::string slurp(const fs::path& p) { return stickslip::testing::slurp(p); }
+  stickslip::testing::CliSandbox box_{"stickslip-cli"};
+  const fs::path& dir_ = box_.dir();
 };
 
 const char* kGood = R"({"name": "g", "stages": [{"duration": 2.5}, {"duration": 1}],

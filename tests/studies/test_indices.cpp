@@ -17,28 +17,17 @@
 #include "stickslip/studies/runner.h"
 #include "stickslip/studies/sensitivity.h"
 
+#include "support/temp_dir.h"
+
 namespace {
 
 namespace fs = std::filesystem;
 namespace ss = stickslip::sensitivity;
 using namespace stickslip::studies;
 
-class TempDir {
- public:
-  TempDir() {
-    std::random_device rd;
-    path_ = fs::temp_directory_path() /
-            ("stickslip-indices-" + std::to_string(rd()) + "-" + std::to_string(::getpid()));
-    fs::create_directories(path_);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path_, ec);
-  }
-  fs::path operator/(const std::string& s) const { return path_ / s; }
-
- private:
-  fs::path path_;
+// A fresh temp directory per test, removed at scope exit.
+struct TempDir : stickslip::testing::TempDir {
+  TempDir() : stickslip::testing::TempDir("stickslip-indices") {}
 };
 
 StudySpec parse_ok(const std::string& text) {

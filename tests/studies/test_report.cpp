@@ -15,29 +15,17 @@
 
 #include "stickslip/studies/map.h"
 
+#include "support/temp_dir.h"
+
 namespace {
 
 namespace fs = std::filesystem;
 using nlohmann::json;
 using namespace stickslip::studies;
 
-class TempDir {
- public:
-  TempDir() {
-    std::random_device rd;
-    path_ = fs::temp_directory_path() /
-            ("stickslip-report-" + std::to_string(rd()) + "-" + std::to_string(::getpid()));
-    fs::create_directories(path_);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path_, ec);
-  }
-  fs::path operator/(const std::string& s) const { return path_ / s; }
-  const fs::path& path() const { return path_; }
-
- private:
-  fs::path path_;
+// A fresh temp directory per test, removed at scope exit.
+struct TempDir : stickslip::testing::TempDir {
+  TempDir() : stickslip::testing::TempDir("stickslip-report") {}
 };
 
 // A small nightly: a 2 x 3 map (2.5 s still + 1 s vibrating: the first slip comes at 0.95 s),
