@@ -31,15 +31,7 @@ studies::Store open_existing(const std::string& db) {
 
 studies::StudyRecord resolve_study(studies::Store& store, const std::string& id_or_name) {
   if (auto s = store.get_study(id_or_name)) return *s;
-  std::optional<studies::StudyRecord> newest;
-  std::string after;
-  while (true) {
-    const auto page = store.list_studies(500, after);
-    if (page.empty()) break;
-    for (const auto& s : page)
-      if (s.name == id_or_name) newest = s;  // ids sort in creation order
-    after = page.back().id;
-  }
+  const auto newest = store.find_newest_by_name(id_or_name);
   if (!newest)
     throw std::invalid_argument("no study with id or name '" + id_or_name + "' in " +
                                 store.path().string());

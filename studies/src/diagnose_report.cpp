@@ -5,16 +5,16 @@
 #include <fstream>
 #include <sstream>
 
+#include "stickslip/studies/json_number.h"
 #include "stickslip/studies/diagnose.h"
 
 namespace stickslip::studies {
 namespace {
 
-nlohmann::json num(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); }
 
 nlohmann::json params_json(const std::vector<ParamEstimate>& ps) {
   nlohmann::json j = nlohmann::json::object();
-  for (const auto& p : ps) j[p.name] = {{"value", num(p.value)}, {"stderr", num(p.stderr_)}};
+  for (const auto& p : ps) j[p.name] = {{"value", json_number(p.value)}, {"stderr", json_number(p.stderr_)}};
   return j;
 }
 
@@ -23,9 +23,9 @@ nlohmann::json stages_json(const std::vector<StageScore>& ss, const Diagnosis& d
   for (const auto& s : ss)
     a.push_back({{"run", d.run_names.at(s.run)},
                  {"stage", s.stage + 1},
-                 {"amplitude", {{"measured", num(s.measured_amplitude)}, {"model", num(s.model_amplitude)}}},
-                 {"mean_force", {{"measured", num(s.measured_mean)}, {"model", num(s.model_mean)}}},
-                 {"mean_period", {{"measured", num(s.measured_period)}, {"model", num(s.model_period)}}},
+                 {"amplitude", {{"measured", json_number(s.measured_amplitude)}, {"model", json_number(s.model_amplitude)}}},
+                 {"mean_force", {{"measured", json_number(s.measured_mean)}, {"model", json_number(s.model_mean)}}},
+                 {"mean_period", {{"measured", json_number(s.measured_period)}, {"model", json_number(s.model_period)}}},
                  {"slip_events", {{"measured", s.measured_slips}, {"model", s.model_slips}}}});
   return a;
 }
@@ -39,56 +39,56 @@ nlohmann::json to_json(const Diagnosis& d) {
   j["base_params"] = params_json(d.base_params);
   j["cause"] = d.cause;
   j["best_candidate"] = d.best_candidate;
-  j["rmse_base_heldout"] = num(d.rmse_base_heldout);
-  j["rmse_extended_heldout"] = num(d.rmse_extended_heldout);
-  j["gain"] = num(d.gain);
+  j["rmse_base_heldout"] = json_number(d.rmse_base_heldout);
+  j["rmse_extended_heldout"] = json_number(d.rmse_extended_heldout);
+  j["gain"] = json_number(d.gain);
   auto& cands = j["candidates"] = nlohmann::json::array();
   for (const auto& c : d.candidates)
     cands.push_back({{"id", to_string(c.kind)},
                      {"status", c.status},
                      {"params", params_json(c.params)},
                      {"base_params", params_json(c.base_params)},
-                     {"offset", num(c.offset)},
-                     {"rmse_fit", num(c.rmse_fit)},
-                     {"rmse_heldout", num(c.rmse_heldout)},
-                     {"gain", num(c.gain)},
-                     {"aic", num(c.aic)},
-                     {"lr", num(c.lr)},
+                     {"offset", json_number(c.offset)},
+                     {"rmse_fit", json_number(c.rmse_fit)},
+                     {"rmse_heldout", json_number(c.rmse_heldout)},
+                     {"gain", json_number(c.gain)},
+                     {"aic", json_number(c.aic)},
+                     {"lr", json_number(c.lr)},
                      {"dof", c.dof},
-                     {"p_value", num(c.p_value)},
-                     {"p_holm", num(c.p_holm)},
+                     {"p_value", json_number(c.p_value)},
+                     {"p_holm", json_number(c.p_holm)},
                      {"significant", c.significant},
                      {"evaluations", c.evals}});
   const Evidence& e = d.evidence;
   nlohmann::json lv = nlohmann::json::array();
   for (std::size_t i = 0; i < e.stage_mean_residual.size(); ++i)
-    lv.push_back({{"va", num(e.stage_va[i])}, {"mean_residual", num(e.stage_mean_residual[i])}});
-  j["evidence"] = {{"residual_rms", num(e.residual_rms)},
-                   {"lag1_autocorrelation", num(e.rho)},
-                   {"n_fit", num(e.n)},
-                   {"n_effective", num(e.n_eff)},
-                   {"corr_velocity", num(e.corr_velocity)},
-                   {"corr_position", num(e.corr_position)},
-                   {"corr_stick_time", num(e.corr_stick_time)},
-                   {"trend_per_m", num(e.trend_per_m)},
-                   {"x_spectrum_peak", {{"wavelength", num(e.wavelength)},
-                                        {"amplitude", num(e.wavelength_amplitude)},
-                                        {"phase", num(e.wavelength_phase)},
-                                        {"power_over_median", num(e.wavelength_ratio)}}},
+    lv.push_back({{"va", json_number(e.stage_va[i])}, {"mean_residual", json_number(e.stage_mean_residual[i])}});
+  j["evidence"] = {{"residual_rms", json_number(e.residual_rms)},
+                   {"lag1_autocorrelation", json_number(e.rho)},
+                   {"n_fit", json_number(e.n)},
+                   {"n_effective", json_number(e.n_eff)},
+                   {"corr_velocity", json_number(e.corr_velocity)},
+                   {"corr_position", json_number(e.corr_position)},
+                   {"corr_stick_time", json_number(e.corr_stick_time)},
+                   {"trend_per_m", json_number(e.trend_per_m)},
+                   {"x_spectrum_peak", {{"wavelength", json_number(e.wavelength)},
+                                        {"amplitude", json_number(e.wavelength_amplitude)},
+                                        {"phase", json_number(e.wavelength_phase)},
+                                        {"power_over_median", json_number(e.wavelength_ratio)}}},
                    {"stage_level_vs_va", lv},
                    {"per_stage", stages_json(e.stages, d)}};
   auto& cal = j["calibrations"] = nlohmann::json::array();
   for (const auto& c : d.calibrations) {
     nlohmann::json runs = nlohmann::json::object();
-    for (std::size_t k = 0; k < c.rmse_run.size(); ++k) runs[d.run_names[k]] = num(c.rmse_run[k]);
+    for (std::size_t k = 0; k < c.rmse_run.size(); ++k) runs[d.run_names[k]] = json_number(c.rmse_run[k]);
     cal.push_back({{"model", to_string(c.model)},
                    {"status", c.status},
                    {"params", params_json(c.params)},
-                   {"offset", num(c.offset)},
-                   {"rmse_fit", num(c.rmse_fit)},
-                   {"rmse_heldout", num(c.rmse_heldout)},
+                   {"offset", json_number(c.offset)},
+                   {"rmse_fit", json_number(c.rmse_fit)},
+                   {"rmse_heldout", json_number(c.rmse_heldout)},
                    {"rmse_run", runs},
-                   {"aic", num(c.aic)},
+                   {"aic", json_number(c.aic)},
                    {"evaluations", c.evals},
                    {"per_stage", stages_json(c.stages, d)}});
   }

@@ -1,3 +1,4 @@
+#include "stickslip/studies/json_number.h"
 #include "stickslip/studies/export.h"
 
 #include <cmath>
@@ -9,8 +10,6 @@ namespace {
 
 using nlohmann::json;
 
-json num(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
-json num(const std::optional<double>& v) { return v ? num(*v) : json(nullptr); }
 
 std::string cell(double v) {
   if (!std::isfinite(v)) return "";
@@ -35,28 +34,28 @@ json run_to_json(const RunRecord& r) {
   json stages = json::array();
   for (const auto& s : r.stages)
     stages.push_back({{"stage", s.stage},
-                      {"t_start", num(s.t_start)},
-                      {"t_end", num(s.t_end)},
-                      {"amplitude", num(s.amplitude)},
-                      {"amplitude_raw", num(s.amplitude_raw)},
-                      {"mean_force", num(s.mean_force)},
-                      {"mean_friction", num(s.mean_friction)},
+                      {"t_start", json_number(s.t_start)},
+                      {"t_end", json_number(s.t_end)},
+                      {"amplitude", json_number(s.amplitude)},
+                      {"amplitude_raw", json_number(s.amplitude_raw)},
+                      {"mean_force", json_number(s.mean_force)},
+                      {"mean_friction", json_number(s.mean_friction)},
                       {"slip_events", s.slip_events},
-                      {"mean_period", num(s.mean_period)},
-                      {"rmse", num(s.rmse)}});
+                      {"mean_period", json_number(s.mean_period)},
+                      {"rmse", json_number(s.rmse)}});
   json params = json::parse(r.params_json.empty() ? "{}" : r.params_json, nullptr, false);
   if (params.is_discarded()) params = json::object();
   json out = {{"design_index", r.design_index},
               {"model", r.model ? json(*r.model) : json(nullptr)},
-              {"va_over_vd", num(r.va_over_vd)},
+              {"va_over_vd", json_number(r.va_over_vd)},
               {"status", r.status},
               {"error", r.error.empty() ? json(nullptr) : json(r.error)},
               {"params", params},
               {"param_hash", r.param_hash},
-              {"wall_time_s", num(r.wall_time_s)},
-              {"t_end", num(r.t_end)},
+              {"wall_time_s", json_number(r.wall_time_s)},
+              {"t_end", json_number(r.t_end)},
               {"steps", r.steps},
-              {"rmse", num(r.rmse)},
+              {"rmse", json_number(r.rmse)},
               {"finished_at", r.finished_at},
               {"stages", stages}};
   return out;

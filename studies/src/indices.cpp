@@ -1,4 +1,5 @@
 // Sensitivity indices of stored studies (see indices.h).
+#include "stickslip/studies/json_number.h"
 #include "stickslip/studies/indices.h"
 
 #include <algorithm>
@@ -13,8 +14,7 @@ namespace {
 
 using nlohmann::json;
 
-json num(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
-json interval(const sensitivity::Interval& i) { return json::array({num(i.lo), num(i.hi)}); }
+json interval(const sensitivity::Interval& i) { return json::array({json_number(i.lo), json_number(i.hi)}); }
 
 std::size_t stage_count(const StudySpec& spec) {
   return spec.is_analytic() ? 1 : spec.base_config().stages.size();
@@ -313,24 +313,24 @@ nlohmann::json indices_to_json(const StudyIndices& r) {
     for (const auto& p : o.invalid_points)
       pts.push_back({{"design_index", p.design_index}, {"status", p.status}, {"reason", p.reason}});
     jo["invalid_points"] = pts;
-    jo["mean"] = o.valid ? num(o.mean) : json(nullptr);
-    jo["variance"] = o.valid ? num(o.variance) : json(nullptr);
+    jo["mean"] = o.valid ? json_number(o.mean) : json(nullptr);
+    jo["variance"] = o.valid ? json_number(o.variance) : json(nullptr);
     json idx = json::array();
     for (std::size_t p = 0; p < r.parameters.size(); ++p) {
       if (o.sobol) {
         const auto& s = *o.sobol;
         idx.push_back({{"parameter", r.parameters[p]},
-                       {"S1", num(s.S1[p])},
+                       {"S1", json_number(s.S1[p])},
                        {"S1_ci", interval(s.S1_ci[p])},
-                       {"ST", num(s.ST[p])},
+                       {"ST", json_number(s.ST[p])},
                        {"ST_ci", interval(s.ST_ci[p])}});
       } else if (o.morris) {
         const auto& m = *o.morris;
         idx.push_back({{"parameter", r.parameters[p]},
-                       {"mu", num(m.mu[p])},
-                       {"mu_star", num(m.mu_star[p])},
+                       {"mu", json_number(m.mu[p])},
+                       {"mu_star", json_number(m.mu_star[p])},
                        {"mu_star_ci", interval(m.mu_star_ci[p])},
-                       {"sigma", num(m.sigma[p])}});
+                       {"sigma", json_number(m.sigma[p])}});
       }
     }
     jo["indices"] = idx;

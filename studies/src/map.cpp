@@ -1,4 +1,5 @@
 // Stick-slip maps of stored studies (see map.h).
+#include "stickslip/studies/json_number.h"
 #include "stickslip/studies/map.h"
 
 #include <algorithm>
@@ -15,8 +16,6 @@ namespace {
 
 using nlohmann::json;
 
-json num(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
-json num(const std::optional<double>& v) { return v ? num(*v) : json(nullptr); }
 
 std::string fmt(double v, const char* f = "%.4g") {
   if (!std::isfinite(v)) return "";
@@ -148,7 +147,7 @@ json map_to_json(const StudyMap& map) {
   json rows = json::array();
   for (const MapRow& r : map.rows) {
     json key = json::object();
-    for (const auto& [n, v] : r.key) key[n] = num(v);
+    for (const auto& [n, v] : r.key) key[n] = json_number(v);
     json cells = json::object();
     for (std::size_t m = 0; m < map.models.size(); ++m) {
       const MapCell& c = r.cells[m];
@@ -159,14 +158,14 @@ json map_to_json(const StudyMap& map) {
         if (!c.error.empty()) cell["error"] = c.error;
         json amp = json::array(), mean = json::array(), srm = json::array();
         for (std::size_t s = 0; s < c.amplitude.size(); ++s) {
-          amp.push_back(num(c.amplitude[s]));
-          mean.push_back(num(c.mean_force[s]));
-          srm.push_back(num(c.stage_rmse[s]));
+          amp.push_back(json_number(c.amplitude[s]));
+          mean.push_back(json_number(c.mean_force[s]));
+          srm.push_back(json_number(c.stage_rmse[s]));
         }
         cell["amplitude"] = amp;
         cell["mean_force"] = mean;
-        cell["ratio"] = num(c.ratio);
-        cell["rmse"] = num(c.rmse);
+        cell["ratio"] = json_number(c.ratio);
+        cell["rmse"] = json_number(c.rmse);
         cell["stage_rmse"] = srm;
       }
       cells[map.models[m]] = cell;

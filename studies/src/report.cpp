@@ -1,5 +1,6 @@
 // The nightly report: configuration, running the studies, summary.json and the night-to-night
 // comparison (see report.h). The HTML and its plots are in report_html.cpp.
+#include "stickslip/studies/json_number.h"
 #include "stickslip/studies/report.h"
 
 #include <algorithm>
@@ -34,7 +35,6 @@ std::optional<std::string> read_file(const fs::path& p) {
   return s.str();
 }
 
-json num(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
 
 // j[key] by reference, or an empty array when missing (never a temporary: callers keep pointers
 // into the result).
@@ -397,10 +397,10 @@ void compare_maps(const std::string& entry, const json& prev, const json& cur,
         if (std::isnan(a) != std::isnan(b) || std::abs(b - a) > limit) {
           json f = base;
           f["stage"] = s + 1;
-          f["previous"] = num(a);
-          f["current"] = num(b);
-          f["delta"] = num(b - a);
-          f["tolerance"] = num(limit);
+          f["previous"] = json_number(a);
+          f["current"] = json_number(b);
+          f["delta"] = json_number(b - a);
+          f["tolerance"] = json_number(limit);
           f["reason"] = "amplitude moved by more than the tolerance";
           flags.push_back(f);
         }

@@ -746,6 +746,10 @@ std::optional<StudyRecord> Store::find_by_idempotency_key(const std::string& key
   return impl_->study_where("WHERE idempotency_key = ?1", key);
 }
 
+std::optional<StudyRecord> Store::find_newest_by_name(const std::string& name) {
+  return impl_->study_where("WHERE name = ?1 ORDER BY id DESC LIMIT 1", name);
+}
+
 std::optional<StudyRecord> Store::find_resumable(const std::string& name,
                                                 const std::string& spec_hash) {
   return impl_->study_where(

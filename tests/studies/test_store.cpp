@@ -25,6 +25,8 @@
 #include <thread>
 #include <vector>
 
+#include "support/temp_dir.h"
+
 namespace {
 
 namespace fs = std::filesystem;
@@ -261,23 +263,16 @@ NewStudy new_study(const std::string& name, std::int64_t total_runs) {
 
 class StoreTest : public ::testing::Test {
  protected:
-  void SetUp() override {
-    std::string tmpl = (fs::temp_directory_path() / "stickslip-store-XXXXXX").string();
-    ASSERT_NE(mkdtemp(tmpl.data()), nullptr);
-    dir_ = tmpl;
-    db_ = dir_ / "study.db";
-  }
-  void TearDown() override {
-    std::error_code ec;
-    fs::remove_all(dir_, ec);
-  }
+  void SetUp() override { db_ = dir_ / "study.db"; }
   /// Creates the database and one study; returns its id.
   std::string make_study(std::int64_t total_runs, const fs::path& db = {}) {
     auto store = Store::open(db.empty() ? db_ : db);
     return store.create_study(new_study("s", total_runs)).study.id;
   }
 
-  fs::path dir_, db_;
+  stickslip::testing::TempDir tmp_{"stickslip-store"};
+  const fs::path& dir_ = tmp_.path();
+  fs::path db_;
 };
 
 /// Expects fn to throw a StoreError whose message contains every needle.

@@ -185,6 +185,8 @@ class Store {
   void set_study_state(const std::string& id, StudyState state,
                        const std::optional<std::string>& error = std::nullopt);
   std::optional<StudyRecord> find_by_idempotency_key(const std::string& key);
+  /// The newest study of this name (ids sort in creation order), if any.
+  std::optional<StudyRecord> find_newest_by_name(const std::string& name);
   /// The newest study with this name and spec_hash that is not cancelled (create-or-resume).
   std::optional<StudyRecord> find_resumable(const std::string& name, const std::string& spec_hash);
 
