@@ -174,6 +174,14 @@ StudyIndices compute_indices(Store& store, const std::string& study_id,
   result.total_runs = static_cast<std::int64_t>(spec.run_count());
   result.options = options;
   const std::size_t d = result.parameters.size();
+  if (spec.F_S_below_F_C() == FsBelowFc::kRaiseToFc)
+    for (std::size_t i = 0; i < spec.run_count(); ++i) {
+      try {
+        if (spec.raises_F_S(spec.point(i))) ++result.F_S_raised_runs;
+      } catch (const std::exception&) {
+        // A point with another problem is an invalid run; it is counted as failed below.
+      }
+    }
   if (design.type == DesignType::kSobol) {
     result.n = design.n;
   } else {
@@ -298,6 +306,7 @@ nlohmann::json indices_to_json(const StudyIndices& r) {
          {"state", r.state},               {"method", r.method},
          {"parameters", r.parameters},     {"total_runs", r.total_runs},
          {"stored_runs", r.stored_runs},   {"failed_runs", r.failed_runs},
+         {"F_S_raised_runs", r.F_S_raised_runs},
          {"confidence", r.options.confidence}, {"resamples", r.options.resamples},
          {"valid", r.valid()}};
   if (r.method == "sobol") j["n"] = r.n;
@@ -348,6 +357,8 @@ std::string indices_to_table(const StudyIndices& r) {
   s << ", " << r.stored_runs << "/" << r.total_runs << " runs stored, " << r.failed_runs
     << " failed; " << static_cast<int>(std::lround(r.options.confidence * 100))
     << "% bootstrap intervals\n";
+  if (r.F_S_raised_runs > 0)
+    s << r.F_S_raised_runs << " runs had F_S < F_C and were simulated with F_S = F_C\n";
   std::size_t w = 9;
   for (const auto& p : r.parameters) w = std::max(w, p.size());
   for (const auto& o : r.outputs) {

@@ -320,6 +320,9 @@ std::string indices_section(Plotter& plot, const std::string& id, const json& in
     << " runs stored, " << ind.value("failed_runs", 0) << " failed; "
     << fmt(ind.value("confidence", json(0.95)), "%.2g") << " bootstrap intervals ("
     << ind.value("resamples", 0) << " resamples).</p>\n";
+  if (const auto raised = ind.value("F_S_raised_runs", 0); raised > 0)
+    h << "<p>" << raised << " runs had F_S &lt; F_C and were simulated with F_S = F_C "
+      << "(the study's F_S_below_F_C policy).</p>\n";
   for (const json& o : ind.value("outputs", json::array())) {
     const std::string out = o.value("output", "");
     h << "<h4>" << html_escape(out) << "</h4>\n";

@@ -409,7 +409,7 @@ void SpecBuilder::read_engine_base(const json& base) {
 }
 
 void SpecBuilder::reject_engine_sections() {
-  for (const char* key : {"stages", "integrator", "outputs", "measured"})
+  for (const char* key : {"stages", "integrator", "outputs", "measured", "F_S_below_F_C"})
     if (member(doc_, key) != nullptr)
       errors_.add(std::string("/") + key, "not used by the analytic model " + spec_.analytic_);
 }
@@ -492,6 +492,8 @@ void SpecBuilder::read_outputs_and_measured() {
       cfg().trace.rate = number_at(*traces, "rate").value_or(0.0);
   }
   spec_.measured_ = string_at(doc_, "measured");
+  if (string_at(doc_, "F_S_below_F_C").value_or("fail") == "raise_F_S_to_F_C")
+    spec_.fs_below_fc_ = FsBelowFc::kRaiseToFc;
 }
 
 // ---------------------------------------------------------------- names and values
@@ -993,6 +995,9 @@ json SpecBuilder::canonical() const {
   out["outputs"] = json::object();
   if (c.trace.rate > 0) out["outputs"]["traces"] = {{"rate", c.trace.rate}};
   if (spec_.measured_) out["measured"] = *spec_.measured_;
+  // Only when not the default, so the canonical form (and the spec hash that resume and the
+  // nightly report's reuse key on) of every study written before this field existed is unchanged.
+  if (spec_.fs_below_fc_ == FsBelowFc::kRaiseToFc) out["F_S_below_F_C"] = "raise_F_S_to_F_C";
   return out;
 }
 
@@ -1111,7 +1116,13 @@ DesignPoint StudySpec::point(std::size_t index) const {
   return p;
 }
 
-SimConfig StudySpec::config_for(const DesignPoint& point) const {
+namespace {
+bool uses_static_friction(ModelKind m) {
+  return m == ModelKind::kLuGre || m == ModelKind::kKarnopp;
+}
+}  // namespace
+
+SimConfig StudySpec::unchecked_config(const DesignPoint& point) const {
   if (is_analytic())
     throw InvalidParameter("model", analytic_, "is an analytic test model, not a simulation");
   SimConfig c = base_;
@@ -1132,6 +1143,20 @@ SimConfig StudySpec::config_for(const DesignPoint& point) const {
   } else if (v_a) {
     set_parameter(c, "v_a", *v_a);
   }
+  return c;
+}
+
+bool StudySpec::raises_F_S(const DesignPoint& point) const {
+  if (is_analytic() || fs_below_fc_ != FsBelowFc::kRaiseToFc) return false;
+  const SimConfig c = unchecked_config(point);
+  return uses_static_friction(c.model) && c.friction.F_S < c.friction.F_C;
+}
+
+SimConfig StudySpec::config_for(const DesignPoint& point) const {
+  SimConfig c = unchecked_config(point);
+  if (fs_below_fc_ == FsBelowFc::kRaiseToFc && uses_static_friction(c.model) &&
+      c.friction.F_S < c.friction.F_C)
+    c.friction.F_S = c.friction.F_C;
   if (c.total_duration() > limits_.max_duration)
     throw InvalidParameter("duration", c.total_duration(),
                            "exceeds the limit of " + fmt(limits_.max_duration) + " s");

@@ -200,6 +200,54 @@ TEST(IndicesEndToEnd, FailedRunsMakeIndicesInvalid) {
   EXPECT_EQ(j["outputs"][0]["invalid_points"].size(), failed.size());
 }
 
+// The same overlapping ranges with "F_S_below_F_C": "raise_F_S_to_F_C": every run succeeds, the
+// indices are valid, and the count of raised points is reported. Those runs equal runs made with
+// F_S = F_C explicitly.
+TEST(IndicesEndToEnd, RaisedStaticFrictionKeepsIndicesValidAndIsCounted) {
+  TempDir dir;
+  const std::string text = R"({"name": "raised", "base": {"model": "karnopp"},
+      "F_S_below_F_C": "raise_F_S_to_F_C",
+      "stages": [{"duration": 0.3}, {"duration": 0.2}],
+      "design": {"type": "sobol", "n": 8, "ranges": [
+          {"name": "F_S", "min": 8, "max": 12}, {"name": "F_C", "min": 7, "max": 10}]}})";
+  const StudySpec spec = parse_ok(text);
+  const std::string id = run(dir / "r.db", spec);
+  std::int64_t expected = 0;
+  for (std::size_t i = 0; i < spec.run_count(); ++i) {
+    const DesignPoint p = spec.point(i);
+    if (*p.value("F_S") < *p.value("F_C")) ++expected;
+    EXPECT_EQ(spec.raises_F_S(p), *p.value("F_S") < *p.value("F_C")) << i;
+  }
+  ASSERT_GT(expected, 0) << "the design was meant to contain F_S < F_C points";
+  const StudyIndices r = indices(dir / "r.db", id, {"stage1.mean_force"});
+  EXPECT_TRUE(r.valid()) << r.outputs.at(0).reason;
+  EXPECT_EQ(r.failed_runs, 0);
+  EXPECT_EQ(r.F_S_raised_runs, expected);
+  EXPECT_EQ(indices_to_json(r)["F_S_raised_runs"], expected);
+  EXPECT_NE(indices_to_table(r).find(std::to_string(expected) + " runs had F_S < F_C"),
+            std::string::npos);
+
+  // A raised point's stored result is the run with F_S = F_C set explicitly.
+  std::size_t raised = 0;
+  while (!spec.raises_F_S(spec.point(raised))) ++raised;
+  const double fc = *spec.point(raised).value("F_C");
+  nlohmann::json doc = {{"name", "explicit"},
+                        {"base", {{"model", "karnopp"}}},
+                        {"stages", {{{"duration", 0.3}}, {{"duration", 0.2}}}},
+                        {"design", {{"type", "list"}, {"points", {{{"F_S", fc}, {"F_C", fc}}}}}}};
+  const StudySpec explicit_spec = parse_ok(doc.dump());
+  const RunRecord want = compute_run(explicit_spec, 0, "x");
+  Store store = Store::open(dir / "r.db", Store::Mode::kReadOnly);
+  const auto got = store.get_runs(id, static_cast<std::int64_t>(raised) - 1, 1);
+  ASSERT_EQ(got.size(), 1u);
+  ASSERT_EQ(got[0].status, "ok") << got[0].error;
+  ASSERT_EQ(got[0].stages.size(), want.stages.size());
+  for (std::size_t k = 0; k < want.stages.size(); ++k) {
+    EXPECT_EQ(got[0].stages[k].mean_force, want.stages[k].mean_force) << k;
+    EXPECT_EQ(got[0].stages[k].amplitude, want.stages[k].amplitude) << k;
+  }
+}
+
 TEST(IndicesEndToEnd, MissingRunsMakeIndicesInvalid) {
   TempDir dir;
   const StudySpec spec = parse_ok(R"({"name": "half", "base": {"model": "ishigami"},

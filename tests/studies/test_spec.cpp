@@ -372,6 +372,53 @@ TEST(ConfigFor, InvalidPointThrowsInvalidParameterNamingTheField) {
   EXPECT_THROW(spec.config_for(bad), InvalidParameter);
 }
 
+TEST(ConfigFor, FsBelowFcPolicyRaisesFsOnlyWhenAsked) {
+  const json doc = json::parse(R"({"name": "fs", "design": {"type": "grid", "axes": [
+      {"name": "model", "values": ["lugre", "karnopp", "dahl"]},
+      {"name": "F_S", "values": [5, 10]}]}})");  // base F_C = 8.3
+  const auto strict = parse_ok(doc);
+  EXPECT_EQ(strict.F_S_below_F_C(), FsBelowFc::kFail);
+  EXPECT_FALSE(strict.canonical().contains("F_S_below_F_C"));  // old specs keep their hash
+  EXPECT_THROW(strict.config_for(strict.point(0)), InvalidParameter);
+  EXPECT_FALSE(strict.raises_F_S(strict.point(0)));
+
+  json raising = doc;
+  raising["F_S_below_F_C"] = "raise_F_S_to_F_C";
+  const auto spec = parse_ok(raising);
+  EXPECT_EQ(spec.F_S_below_F_C(), FsBelowFc::kRaiseToFc);
+  EXPECT_EQ(spec.canonical()["F_S_below_F_C"], "raise_F_S_to_F_C");
+  EXPECT_EQ(parse_ok(spec.canonical_json()).canonical(), spec.canonical());
+  EXPECT_NE(spec.canonical_json(), strict.canonical_json());
+  // points: (lugre, 5) (lugre, 10) (karnopp, 5) (karnopp, 10) (dahl, 5) (dahl, 10)
+  for (std::size_t i : {0u, 2u}) {
+    EXPECT_TRUE(spec.raises_F_S(spec.point(i))) << i;
+    const SimConfig c = spec.config_for(spec.point(i));
+    EXPECT_EQ(c.friction.F_S, 8.3) << i;
+    EXPECT_EQ(c.friction.F_C, 8.3) << i;
+  }
+  for (std::size_t i : {1u, 3u, 5u}) {
+    EXPECT_FALSE(spec.raises_F_S(spec.point(i))) << i;
+    EXPECT_EQ(spec.config_for(spec.point(i)).friction.F_S, 10.0) << i;
+  }
+  // Dahl does not use F_S: nothing to raise, and its F_S = 5 < F_C still breaks SimConfig's rule.
+  EXPECT_FALSE(spec.raises_F_S(spec.point(4)));
+  // The policy repairs only F_S < F_C: any other bad value still fails, naming it.
+  DesignPoint bad = spec.point(0);
+  bad.values.emplace_back("m", -1.0);
+  EXPECT_THROW(spec.config_for(bad), InvalidParameter);
+
+  json wrong = doc;
+  wrong["F_S_below_F_C"] = "clamp";
+  const ParseResult r = parse_study(wrong.dump());
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.errors.at(0).pointer, "/F_S_below_F_C") << to_string(r.errors);
+  json analytic = json::parse(R"({"name": "ishi", "base": {"model": "ishigami"},
+      "F_S_below_F_C": "raise_F_S_to_F_C"})");
+  const ParseResult ra = parse_study(analytic.dump());
+  ASSERT_FALSE(ra.ok());
+  EXPECT_EQ(ra.errors.at(0).pointer, "/F_S_below_F_C") << to_string(ra.errors);
+}
+
 // ---------------------------------------------------------------- errors
 
 TEST(SpecErrors, MalformedJsonReportsLineAndColumn) {

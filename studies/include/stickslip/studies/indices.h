@@ -72,6 +72,9 @@ struct StudyIndices {
   std::size_t n = 0;                    ///< sobol: base sample size N
   std::size_t trajectories = 0, levels = 0;  ///< morris: r and p
   std::int64_t total_runs = 0, stored_runs = 0, failed_runs = 0;
+  /// Design points simulated with F_S raised to F_C (spec "F_S_below_F_C": "raise_F_S_to_F_C";
+  /// the indices then describe y(x) = f(x with F_S = max(F_S, F_C))).
+  std::int64_t F_S_raised_runs = 0;
   IndicesOptions options;
   std::vector<OutputIndices> outputs;
   bool valid() const noexcept;  ///< every output valid

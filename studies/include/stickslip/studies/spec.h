@@ -45,6 +45,12 @@ struct Limits {
 };
 
 enum class DesignType { kGrid, kList, kRandom, kLhs, kSobol, kMorris };
+
+/// What a run with F_S < F_C does (spec field "F_S_below_F_C"). kFail (default): config_for
+/// throws, so the run is stored as invalid. kRaiseToFc: the run uses F_S = F_C (a flat Stribeck
+/// curve, the nearest valid friction law) and raises_F_S() says so. Lets a Sobol design vary F_S
+/// and F_C independently over overlapping ranges without invalidating the indices.
+enum class FsBelowFc { kFail, kRaiseToFc };
 const char* to_string(DesignType type) noexcept;
 
 /// One run of a study, computed on demand by StudySpec::point().
@@ -128,6 +134,12 @@ class StudySpec {
   /// value when the point is invalid (a parameter outside its domain, F_S < F_C, a duration or
   /// step outside the limits, an analytic model), so the runner can store it as an invalid run.
   SimConfig config_for(const DesignPoint& point) const;
+  /// The spec's "F_S_below_F_C" policy.
+  FsBelowFc F_S_below_F_C() const noexcept { return fs_below_fc_; }
+  /// True when config_for(point) raised F_S to F_C (policy kRaiseToFc, a model that uses F_S,
+  /// and the point's F_S < F_C). False for analytic studies. Throws like config_for for a point
+  /// with another problem.
+  bool raises_F_S(const DesignPoint& point) const;
   /// {"model": ..., "<name>": value, ...} as compact JSON with sorted keys: a stable identity of
   /// the point's parameters (its index is not included).
   std::string canonical_point_json(const DesignPoint& point) const;
@@ -153,11 +165,15 @@ class StudySpec {
   Design design_;
   Limits limits_;
   std::optional<std::string> measured_;
+  FsBelowFc fs_below_fc_ = FsBelowFc::kFail;
   std::size_t run_count_ = 0;
   std::string analytic_;                // "" for friction models
   std::vector<double> analytic_a_;      // sobol_g: a_i; ishigami: {a}
   double analytic_b_ = 0.1;             // ishigami: b
   std::shared_ptr<const std::vector<std::vector<double>>> unit_;  // sampled designs
+
+  // The point's configuration before the F_S_below_F_C policy and validation.
+  SimConfig unchecked_config(const DesignPoint& point) const;
 };
 
 struct ParseResult {
