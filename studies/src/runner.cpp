@@ -268,7 +268,10 @@ RunSummary run_study(const std::filesystem::path& db, const std::string& study_i
     sum.outcome = RunOutcome::kFailed;
     sum.error = why;
     try {
-      Store::open(db).set_study_state(study_id, StudyState::kFailed, why);
+      // Never create a database just to record a failure (e.g. a mistyped path).
+      std::error_code ec;
+      if (std::filesystem::is_regular_file(db, ec))
+        Store::open(db).set_study_state(study_id, StudyState::kFailed, why);
     } catch (const std::exception&) {  // the store itself is the problem; nothing more to do
     }
     sum.wall_s = seconds_since(t_start);
@@ -279,6 +282,12 @@ RunSummary run_study(const std::filesystem::path& db, const std::string& study_i
   Progress progress;
   progress.total = sum.total;
   std::optional<MeasuredDataset> measured;
+  {
+    // The study must already be in the database: a missing file is an error, not a new store.
+    std::error_code ec;
+    if (!std::filesystem::is_regular_file(db, ec))
+      return fail("no database at " + db.string() + " (create the study first)");
+  }
   try {
     Store store = Store::open(db);
     const auto study = store.get_study(study_id);

@@ -335,7 +335,13 @@ TEST(Runner, StoreProblemsFailTheStudyWithoutThrowing) {
   const StudySpec spec = parse_ok(kSmallGrid);
   const RunSummary s = run_study(dir / "none.db", "st-unknown", spec, {});
   EXPECT_EQ(s.outcome, RunOutcome::kFailed);
-  EXPECT_NE(s.error.find("st-unknown"), std::string::npos) << s.error;
+  EXPECT_NE(s.error.find("none.db"), std::string::npos) << s.error;
+  EXPECT_FALSE(fs::exists(dir / "none.db")) << "a failed run_study must not create a database";
+
+  { Store::open(dir / "empty.db"); }  // an initialised store without that study
+  const RunSummary s2 = run_study(dir / "empty.db", "st-unknown", spec, {});
+  EXPECT_EQ(s2.outcome, RunOutcome::kFailed);
+  EXPECT_NE(s2.error.find("st-unknown"), std::string::npos) << s2.error;
 }
 
 }  // namespace
