@@ -131,11 +131,6 @@ class Session : public std::enable_shared_from_this<Session> {
     parser_->body_limit(body_limit_);
     parser_->header_limit(static_cast<std::uint32_t>(server_.options.max_header_bytes));
     stream_.expires_after(server_.options.read_timeout);
-    if (server_.options.path_body_limits.empty()) {
-      http::async_read(stream_, buffer_, *parser_,
-                       beast::bind_front_handler(&Session::on_read, shared_from_this()));
-      return;
-    }
     // The header first, then the body with the limit of the request's path (same deadline).
     http::async_read_header(stream_, buffer_, *parser_,
                             beast::bind_front_handler(&Session::on_header, shared_from_this()));
@@ -151,6 +146,23 @@ class Session : public std::enable_shared_from_this<Session> {
     if (const auto length = parser_->content_length(); length && *length > body_limit_)
       return on_read(http::error::body_limit, n);
     parser_->body_limit(body_limit_);  // chunked bodies are checked chunk by chunk
+    // "Expect: 100-continue" (curl sends it for bodies over 1 MB and otherwise waits 1 s before
+    // sending the body): the body is acceptable, so ask for it now.
+    const auto expect = parser_->get().find(http::field::expect);
+    if (expect != parser_->get().end() && iequals(std::string(expect->value()), "100-continue") &&
+        !parser_->is_done()) {
+      static const std::string kContinue = "HTTP/1.1 100 Continue\r\n\r\n";
+      asio::async_write(stream_, asio::buffer(kContinue),
+                        [self = shared_from_this()](beast::error_code wec, std::size_t) {
+                          if (wec) return self->close();
+                          self->read_body();
+                        });
+      return;
+    }
+    read_body();
+  }
+
+  void read_body() {
     http::async_read(stream_, buffer_, *parser_,
                      beast::bind_front_handler(&Session::on_read, shared_from_this()));
   }

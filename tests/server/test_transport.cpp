@@ -157,6 +157,24 @@ TEST_F(TransportTest, DiagnosesHaveTheirOwnBodyLimit) {
   EXPECT_EQ(get_healthz().substr(0, 12), "HTTP/1.1 200");
 }
 
+TEST_F(TransportTest, ExpectContinueIsAnsweredBeforeTheBodyIsSent) {
+  start();
+  RawClient c(server_->port());
+  const std::string body = "{\"a\": 1}";
+  c.send("POST /v1/diagnoses HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n"
+         "Expect: 100-continue\r\nContent-Length: " + std::to_string(body.size()) + "\r\n\r\n");
+  const std::string interim = c.read_response();  // before any byte of the body
+  EXPECT_EQ(interim, "HTTP/1.1 100 Continue\r\n\r\n");
+  c.send(body);
+  const std::string r = c.read_response();
+  EXPECT_EQ(r.substr(0, 12), "HTTP/1.1 422") << r;
+  // Over the limit: no 100, the 413 straight away.
+  RawClient big(server_->port());
+  big.send("POST /v1/studies HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n"
+           "Expect: 100-continue\r\nContent-Length: 100000\r\n\r\n");
+  EXPECT_EQ(big.read_to_eof().substr(0, 12), "HTTP/1.1 413");
+}
+
 TEST_F(TransportTest, SlowClientIsCutOffByTheReadTimeout) {
   ServerOptions net;
   net.read_timeout = 300ms;

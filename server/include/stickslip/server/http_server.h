@@ -14,6 +14,7 @@
 //  - max_body_bytes / max_header_bytes: larger requests get 413 / 431 and the connection closes;
 //    path_body_limits raises (or lowers) the body limit for exact request paths (the header is
 //    read first, then the body with the limit of its path), e.g. "/v1/diagnoses" -> 64 MiB;
+//    a request with "Expect: 100-continue" gets "100 Continue" once its header is accepted;
 //  - max_connections: connections beyond it get 503 immediately and are closed.
 
 #include <chrono>
