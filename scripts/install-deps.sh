@@ -18,6 +18,7 @@ PACKAGES=(
   gnuplot-nox              # report plots
   python3                  # report tests: html.parser/xml.dom check of the page (stdlib only)
   curl                     # end-to-end tests drive the server with curl
+  jq                       # the curl examples of POST /v1/diagnoses (docs/server.md, README)
   wrk                      # HTTP load benchmark
 )
 

@@ -2,7 +2,9 @@
 //
 // Signals: SIGTERM / SIGINT stop accepting connections, stop the worker (no new run starts; the
 // runs in progress finish and are committed; the study stays queued and resumes on the next
-// start), then the server exits 0.
+// start), then the server exits 0. A running diagnosis is put back to queued and gets
+// --diagnosis-grace seconds to finish (its result is then stored); otherwise the server exits 0
+// without it and the next start reruns it.
 #include <pthread.h>
 #include <signal.h>
 
@@ -16,6 +18,7 @@
 #include <spdlog/spdlog.h>
 
 #include "stickslip/server/api.h"
+#include "stickslip/server/diagnosis_worker.h"
 #include "stickslip/server/http_server.h"
 #include "stickslip/server/worker.h"
 #include "stickslip/studies/runner.h"
@@ -70,6 +73,19 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--max-body", api.max_body_bytes, "largest request body [bytes]")
       ->capture_default_str();
+  app.add_option("--max-diagnosis-body", api.max_diagnosis_body_bytes,
+                 "largest POST /v1/diagnoses body (manifest + CSV contents) [bytes]")
+      ->capture_default_str();
+  server::DiagnosisWorkerOptions diag;
+  int diagnosis_grace_s = 5;
+  app.add_option("--diagnosis-threads", diag.threads,
+                 "OpenMP threads per diagnosis (0 = all cores)")
+      ->capture_default_str();
+  app.add_option("--diagnosis-grace", diagnosis_grace_s,
+                 "on SIGTERM, how long a running diagnosis may still finish before the server "
+                 "exits anyway (it stays queued and reruns on the next start) [s]")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 3600));
   app.add_option("--max-connections", net.max_connections, "concurrent connections")
       ->capture_default_str();
   app.add_option("--read-timeout", read_timeout_s, "time to receive one request [s]")
@@ -92,6 +108,9 @@ int main(int argc, char** argv) {
   api.db = db;
   api.study_cache_ttl = std::chrono::milliseconds(study_cache_ms);
   net.max_body_bytes = api.max_body_bytes;
+  net.path_body_limits["/v1/diagnoses"] = api.max_diagnosis_body_bytes;
+  api.diagnosis_threads = diag.threads;
+  diag.nice = work.nice;
   net.read_timeout = std::chrono::seconds(read_timeout_s);
   net.idle_timeout = std::chrono::seconds(idle_timeout_s);
   work.limits = api.limits;
@@ -105,12 +124,13 @@ int main(int argc, char** argv) {
 
   try {
     std::string why;
-    if (!net.IsValid(&why) || !work.IsValid(&why)) {
+    if (!net.IsValid(&why) || !work.IsValid(&why) || !diag.IsValid(&why)) {
       std::cerr << "stickslipd: " << why << "\n";
       return 2;
     }
     server::Worker worker(api.db, work, &studies::run_study);
-    server::Api handlers(api, &worker);
+    server::DiagnosisWorker diagnoses(api.db, diag, &server::run_diagnosis);
+    server::Api handlers(api, &worker, &diagnoses);
     server::HttpServer http(net, [&handlers](const server::Request& r) {
       return handlers.handle(r);
     });
@@ -121,6 +141,7 @@ int main(int argc, char** argv) {
     std::fflush(stdout);
     http.start();
     worker.start();
+    diagnoses.start();
 
     int sig = 0;
     sigwait(&signals, &sig);
@@ -128,7 +149,16 @@ int main(int argc, char** argv) {
                  sig == SIGTERM ? "SIGTERM" : "SIGINT");
     http.stop_accepting();
     worker.shutdown();
+    const bool diagnosis_ended = diagnoses.shutdown(std::chrono::seconds(diagnosis_grace_s));
     http.stop();
+    if (!diagnosis_ended) {
+      // The running diagnosis cannot be interrupted and is already back in the queue; its
+      // thread was detached, so leave without running destructors under it.
+      spdlog::info("stopped (a running diagnosis was left queued; it reruns on the next start)");
+      spdlog::default_logger()->flush();
+      std::fflush(nullptr);
+      std::_Exit(0);
+    }
     spdlog::info("stopped");
     return 0;
   } catch (const std::invalid_argument& e) {

@@ -2,6 +2,8 @@
 
 #include <iostream>
 
+#include "diagnose_remote.h"
+
 namespace stickslip::client {
 
 int run(int argc, char** argv) {
@@ -12,6 +14,7 @@ int run(int argc, char** argv) {
   add_simulate_command(app, exit_code);
   add_synth_command(app, exit_code);
   add_diagnose_command(app, exit_code);
+  add_diagnosis_command(app, exit_code);
   add_table_command(app, exit_code);
   add_study_command(app, exit_code);
   add_remote_commands(app, exit_code);

@@ -1,7 +1,9 @@
 // `stickslip diagnose MANIFEST --out DIR`: calibrate the four models on measured data, test
 // every catalogue extension, name the cause (studies/include/stickslip/studies/diagnose.h).
+// With --server URL the same diagnosis runs as a job on stickslipd (cmd_diagnosis_remote.cpp).
 #include <iostream>
 
+#include "diagnose_remote.h"
 #include "stickslip/client/cli.h"
 #include "stickslip/studies/diagnose.h"
 
@@ -10,16 +12,24 @@ namespace {
 
 struct DiagnoseArgs {
   std::string manifest, out;
-  std::vector<std::string> models;
+  std::vector<std::string> models, candidates;
   studies::DiagnoseOptions opt;
+  // --server
+  std::string server, idempotency_key;
+  bool wait = false, json_output = false;
 };
 
 int run_diagnose(DiagnoseArgs& a) {
   studies::MeasuredDataset data;
   try {
+    if (a.out.empty()) throw std::invalid_argument("--out DIR is required (or --server URL)");
     if (!a.models.empty()) {
       a.opt.models.clear();
       for (const auto& m : a.models) a.opt.models.push_back(model_from_string(m));
+    }
+    if (!a.candidates.empty()) {
+      a.opt.candidates.clear();
+      for (const auto& c : a.candidates) a.opt.candidates.push_back(extension_from_string(c));
     }
     if (std::string why; !a.opt.IsValid(&why)) throw std::invalid_argument(why);
     data = studies::load_measured(a.manifest);
@@ -49,16 +59,51 @@ void add_diagnose_command(CLI::App& app, int& exit_code) {
   CLI::App* cmd = app.add_subcommand(
       "diagnose",
       "Calibrate the four models on a measured dataset, test every catalogue extension against "
-      "the refitted base on held-out data, and name the cause (writes DIR/diagnosis.json and plots)");
+      "the refitted base on held-out data, and name the cause (writes DIR/diagnosis.json and "
+      "plots); with --server, run it as a job on stickslipd");
   cmd->add_option("manifest", a->manifest, "measured-data manifest (JSON)")->required();
-  cmd->add_option("--out", a->out, "output directory")->required();
+  cmd->add_option("--out", a->out, "output directory (with --server: written after --wait)");
   cmd->add_option("--models", a->models, "base models to calibrate (default: all four)");
-  cmd->add_option("--fit-rate", a->opt.fit_rate, "decimated samples per second [Hz]")->capture_default_str();
-  cmd->add_option("--holdout", a->opt.holdout_fraction, "held-out last part of each stage [-]")->capture_default_str();
-  cmd->add_option("--alpha", a->opt.alpha, "family-wise significance level [-]")->capture_default_str();
-  cmd->add_option("--min-gain", a->opt.min_gain, "minimum held-out gain to name a cause [-]")->capture_default_str();
-  cmd->add_option("--threads", a->opt.threads, "OpenMP threads (0 = default)")->capture_default_str();
-  cmd->callback([a, &exit_code] { exit_code = run_diagnose(*a); });
+  cmd->add_option("--candidates", a->candidates,
+                  "catalogue extensions to test (default: all eight)");
+  auto* fit_rate = cmd->add_option("--fit-rate", a->opt.fit_rate, "decimated samples per second [Hz]")->capture_default_str();
+  auto* holdout = cmd->add_option("--holdout", a->opt.holdout_fraction, "held-out last part of each stage [-]")->capture_default_str();
+  auto* alpha = cmd->add_option("--alpha", a->opt.alpha, "family-wise significance level [-]")->capture_default_str();
+  auto* min_gain = cmd->add_option("--min-gain", a->opt.min_gain, "minimum held-out gain to name a cause [-]")->capture_default_str();
+  auto* evals_base = cmd->add_option("--max-evals-base", a->opt.max_evals_base,
+                                     "objective evaluations per base model")->capture_default_str();
+  auto* evals_cand = cmd->add_option("--max-evals-candidate", a->opt.max_evals_candidate,
+                                     "objective evaluations per extension")->capture_default_str();
+  cmd->add_option("--threads", a->opt.threads, "OpenMP threads (0 = default; local only)")->capture_default_str();
+  cmd->add_option("--server", a->server,
+                  "run on this stickslipd (token: $STICKSLIP_TOKEN): sends the manifest and its "
+                  "CSVs, prints the diagnosis id");
+  cmd->add_flag("--wait", a->wait, "with --server: wait for the result (exit 4 if it fails)");
+  cmd->add_flag("--json", a->json_output, "with --server: the diagnosis resource as JSON");
+  cmd->add_option("--idempotency-key", a->idempotency_key, "with --server: retry-safe key");
+  cmd->callback([=, &exit_code] {
+    if (a->server.empty()) {
+      exit_code = run_diagnose(*a);
+      return;
+    }
+    RemoteDiagnoseArgs r;
+    r.server = a->server;
+    r.manifest = a->manifest;
+    r.out = a->out;
+    r.wait = a->wait;
+    r.json_output = a->json_output;
+    r.idempotency_key = a->idempotency_key;
+    r.options = nlohmann::json::object();
+    if (!a->models.empty()) r.options["models"] = a->models;
+    if (!a->candidates.empty()) r.options["candidates"] = a->candidates;
+    if (fit_rate->count() > 0) r.options["fit_rate"] = a->opt.fit_rate;
+    if (holdout->count() > 0) r.options["holdout_fraction"] = a->opt.holdout_fraction;
+    if (alpha->count() > 0) r.options["alpha"] = a->opt.alpha;
+    if (min_gain->count() > 0) r.options["min_gain"] = a->opt.min_gain;
+    if (evals_base->count() > 0) r.options["max_evals_base"] = a->opt.max_evals_base;
+    if (evals_cand->count() > 0) r.options["max_evals_candidate"] = a->opt.max_evals_candidate;
+    exit_code = remote_diagnose(r);
+  });
 }
 
 }  // namespace stickslip::client

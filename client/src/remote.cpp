@@ -134,4 +134,39 @@ json Remote::wait(const std::string& id, double interval_s,
   }
 }
 
+json Remote::submit_diagnosis(const std::string& request_json, const std::string& idempotency_key) {
+  HttpCall c;
+  c.method = "POST";
+  c.target = "/v1/diagnoses";
+  c.body = request_json;
+  c.headers = {{"Content-Type", "application/json"}};
+  c.timeout = std::chrono::seconds(300);  // the body may be tens of MB
+  if (!idempotency_key.empty()) c.headers.emplace_back("Idempotency-Key", idempotency_key);
+  return parse_reply(call(c, {202}));
+}
+
+json Remote::diagnosis(const std::string& id) {
+  return parse_reply(call({"GET", "/v1/diagnoses/" + id, "", {}, std::chrono::seconds(30)}));
+}
+
+json Remote::cancel_diagnosis(const std::string& id) {
+  HttpCall c;
+  c.method = "POST";
+  c.target = "/v1/diagnoses/" + id + ":cancel";
+  return parse_reply(call(c, {200}));
+}
+
+json Remote::wait_diagnosis(const std::string& id, double interval_s,
+                            const std::function<void(const json&)>& on_change) {
+  std::string last;
+  while (true) {
+    json d = diagnosis(id);
+    const std::string state = d.value("state", std::string());
+    if (state != last && on_change) on_change(d);
+    last = state;
+    if (is_terminal(state)) return d;
+    std::this_thread::sleep_for(std::chrono::duration<double>(interval_s));
+  }
+}
+
 }  // namespace stickslip::client

@@ -4,12 +4,15 @@
 #include <charconv>
 
 #include "api_util.h"
+#include "stickslip/studies/diagnosis_request.h"
 #include "stickslip/studies/export.h"
 #include "stickslip/studies/json_schema.h"
 #include "stickslip/studies/store.h"
 
 namespace stickslip::server {
 
+using detail::is_json_content_type;
+using detail::is_valid_id;
 using detail::store_failure;
 using detail::unknown_study;
 using nlohmann::json;
@@ -24,6 +27,11 @@ bool ApiOptions::IsValid(std::string* why) const {
   if (db.empty()) return fail("db: empty path");
   if (max_body_bytes < 64) return fail("max_body_bytes: must be >= 64, got " +
                                        std::to_string(max_body_bytes));
+  if (max_diagnosis_body_bytes < 64)
+    return fail("max_diagnosis_body_bytes: must be >= 64, got " +
+                std::to_string(max_diagnosis_body_bytes));
+  if (diagnosis_threads < 0)
+    return fail("diagnosis_threads: must be >= 0, got " + std::to_string(diagnosis_threads));
   if (limits.max_runs < 1) return fail("limits.max_runs: must be >= 1");
   if (max_page_size < 1) return fail("max_page_size: must be >= 1");
   if (default_page_size < 1 || default_page_size > max_page_size)
@@ -48,16 +56,6 @@ CancelOutcome cancel_unclaimed(studies::Store& store, const std::string& id) {
 
 namespace {
 
-bool is_valid_id(const std::string& id) {
-  if (id.empty() || id.size() > 128) return false;
-  for (const char c : id) {
-    const bool ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
-                    c == '-' || c == '_' || c == '.';
-    if (!ok) return false;
-  }
-  return true;
-}
-
 /// Constant-time comparison of two tokens (no early exit on the first differing byte).
 bool same_token(std::string_view a, std::string_view b) {
   unsigned char diff = a.size() == b.size() ? 0 : 1;
@@ -70,15 +68,6 @@ bool same_token(std::string_view a, std::string_view b) {
   return diff == 0;
 }
 
-
-bool is_json_content_type(const std::string& value) {
-  std::string_view v = value;
-  const auto semi = v.find(';');
-  v = v.substr(0, semi);
-  while (!v.empty() && v.back() == ' ') v.remove_suffix(1);
-  while (!v.empty() && v.front() == ' ') v.remove_prefix(1);
-  return iequals(v, "application/json");
-}
 
 /// The study as `stickslip study show --json` prints it (studies/export.h), plus links.
 json study_json(const StudyRecord& rec, const studies::RunCounts& counts, bool with_spec) {
@@ -111,8 +100,11 @@ Response idempotency_conflict(const std::string& key, const std::string& id) {
 
 }  // namespace
 
-Api::Api(ApiOptions options, Scheduler* scheduler)
-    : options_(std::move(options)), scheduler_(scheduler), pool_(options_.db) {
+Api::Api(ApiOptions options, Scheduler* scheduler, DiagnosisScheduler* diagnoses)
+    : options_(std::move(options)),
+      scheduler_(scheduler),
+      diagnoses_(diagnoses),
+      pool_(options_.db) {
   std::string why;
   if (!options_.IsValid(&why)) throw std::invalid_argument("ApiOptions: " + why);
   auto id_of = [](const PathParams& p) { return p.at("id"); };
@@ -145,6 +137,17 @@ Api::Api(ApiOptions options, Scheduler* scheduler)
               [this](const Request& r, const PathParams& p) {
                 return get_report_file(r, p.at("date"), "plots", p.at("file"));
               });
+  router_.add("POST", "/v1/diagnoses",
+              [this](const Request& r, const PathParams&) { return create_diagnosis(r); });
+  router_.add("GET", "/v1/diagnoses",
+              [this](const Request& r, const PathParams&) { return list_diagnoses(r); });
+  router_.add("GET", "/v1/diagnoses/{id}", [this, id_of](const Request& r, const PathParams& p) {
+    return get_diagnosis(r, id_of(p));
+  });
+  router_.add("POST", "/v1/diagnoses/{id}:cancel",
+              [this, id_of](const Request& r, const PathParams& p) {
+                return cancel_diagnosis(r, id_of(p));
+              });
   router_.add("GET", "/healthz", [this](const Request& r, const PathParams&) { return healthz(r); });
   router_.add("GET", "/metrics", [this](const Request& r, const PathParams&) { return metrics(r); });
   router_.add("GET", "/v1/openapi.json",
@@ -154,6 +157,12 @@ Api::Api(ApiOptions options, Scheduler* scheduler)
   router_.add("GET", "/v1/study.schema.json", [](const Request&, const PathParams&) {
     Response resp =
         text_response(200, "application/schema+json", std::string(studies::study_schema_text()));
+    resp.set_header("Cache-Control", "public, max-age=3600");
+    return resp;
+  });
+  router_.add("GET", "/v1/diagnosis_request.schema.json", [](const Request&, const PathParams&) {
+    Response resp = text_response(200, "application/schema+json",
+                                  std::string(studies::diagnosis_request_schema_text()));
     resp.set_header("Cache-Control", "public, max-age=3600");
     return resp;
   });

@@ -77,6 +77,37 @@ std::optional<std::size_t> page_size_param(const Request& r, std::size_t fallbac
   return value;
 }
 
+bool is_valid_id(const std::string& id) {
+  if (id.empty() || id.size() > 128) return false;
+  for (const char c : id) {
+    const bool ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
+                    c == '-' || c == '_' || c == '.';
+    if (!ok) return false;
+  }
+  return true;
+}
+
+bool is_json_content_type(const std::string& value) {
+  std::string_view v = value;
+  const auto semi = v.find(';');
+  v = v.substr(0, semi);
+  while (!v.empty() && v.back() == ' ') v.remove_suffix(1);
+  while (!v.empty() && v.front() == ' ') v.remove_prefix(1);
+  return iequals(v, "application/json");
+}
+
+std::optional<Response> check_idempotency_key(const Request& r, const std::string& instance) {
+  const auto key = r.header("Idempotency-Key");
+  if (!key) return std::nullopt;
+  bool ok = !key->empty() && key->size() <= 255;
+  for (const char c : *key) ok = ok && c > ' ' && c <= '~';
+  if (ok) return std::nullopt;
+  return problem(400, "invalid-header", "Invalid header",
+                 "Idempotency-Key must be 1 to 255 visible ASCII characters",
+                 {FieldError::header("Idempotency-Key", "must be 1 to 255 visible ASCII characters")},
+                 instance);
+}
+
 Response unknown_study(const std::string& id, const std::string& instance) {
   return problem(404, "study-not-found", "Study not found", "no study with id \"" + id + "\"",
                  {}, instance);

@@ -25,6 +25,13 @@ Response not_acceptable(const Request& r, bool csv_allowed);
 std::optional<std::size_t> page_size_param(const Request& r, std::size_t fallback,
                                            std::size_t max, Response* error);
 
+/// Ids of studies and diagnoses: 1 to 128 of [A-Za-z0-9._-].
+bool is_valid_id(const std::string& id);
+/// Content-Type application/json (parameters such as charset ignored).
+bool is_json_content_type(const std::string& value);
+/// 400 when the Idempotency-Key header is present but not 1 to 255 visible ASCII characters.
+std::optional<Response> check_idempotency_key(const Request& r, const std::string& instance);
+
 Response unknown_study(const std::string& id, const std::string& instance);
 Response store_failure(const studies::StoreError& e, const std::string& instance);
 

@@ -1,5 +1,7 @@
 #include "stickslip/server/http_server.h"
 
+#include <algorithm>
+
 #include <atomic>
 #include <boost/asio.hpp>
 #include <boost/beast/core.hpp>
@@ -121,9 +123,46 @@ class Session : public std::enable_shared_from_this<Session> {
   // Read phase: the whole request under read_timeout.
   void read_request() {
     parser_.emplace();
-    parser_->body_limit(server_.options.max_body_bytes);
+    // Beast checks a Content-Length against the limit when the header completes, so the header
+    // is read under the largest limit and on_header applies the path's own.
+    body_limit_ = server_.options.max_body_bytes;
+    for (const auto& [path, limit] : server_.options.path_body_limits)
+      body_limit_ = std::max(body_limit_, limit);
+    parser_->body_limit(body_limit_);
     parser_->header_limit(static_cast<std::uint32_t>(server_.options.max_header_bytes));
     stream_.expires_after(server_.options.read_timeout);
+    // The header first, then the body with the limit of the request's path (same deadline).
+    http::async_read_header(stream_, buffer_, *parser_,
+                            beast::bind_front_handler(&Session::on_header, shared_from_this()));
+  }
+
+  void on_header(beast::error_code ec, std::size_t n) {
+    if (ec) return on_read(ec, n);
+    const std::string target(parser_->get().target());
+    const auto path = percent_decode(std::string_view(target).substr(0, target.find('?')));
+    const auto it = server_.options.path_body_limits.find(path);
+    body_limit_ =
+        it != server_.options.path_body_limits.end() ? it->second : server_.options.max_body_bytes;
+    if (const auto length = parser_->content_length(); length && *length > body_limit_)
+      return on_read(http::error::body_limit, n);
+    parser_->body_limit(body_limit_);  // chunked bodies are checked chunk by chunk
+    // "Expect: 100-continue" (curl sends it for bodies over 1 MB and otherwise waits 1 s before
+    // sending the body): the body is acceptable, so ask for it now.
+    const auto expect = parser_->get().find(http::field::expect);
+    if (expect != parser_->get().end() && iequals(std::string(expect->value()), "100-continue") &&
+        !parser_->is_done()) {
+      static const std::string kContinue = "HTTP/1.1 100 Continue\r\n\r\n";
+      asio::async_write(stream_, asio::buffer(kContinue),
+                        [self = shared_from_this()](beast::error_code wec, std::size_t) {
+                          if (wec) return self->close();
+                          self->read_body();
+                        });
+      return;
+    }
+    read_body();
+  }
+
+  void read_body() {
     http::async_read(stream_, buffer_, *parser_,
                      beast::bind_front_handler(&Session::on_read, shared_from_this()));
   }
@@ -133,8 +172,8 @@ class Session : public std::enable_shared_from_this<Session> {
     // beast::error::timeout: tcp_stream has already closed the socket (no 408 can be sent).
     if (ec == http::error::body_limit) {
       return send(problem(413, "body-too-large", "Request body too large",
-                          "the body exceeds the limit of " +
-                              std::to_string(server_.options.max_body_bytes) + " bytes"),
+                          "the body exceeds the limit of " + std::to_string(body_limit_) +
+                              " bytes"),
                   11, false);
     }
     if (ec == http::error::header_limit) {
@@ -189,6 +228,7 @@ class Session : public std::enable_shared_from_this<Session> {
   HttpServer::Impl& server_;
   beast::flat_buffer buffer_;
   std::optional<http::request_parser<http::string_body>> parser_;
+  std::size_t body_limit_ = 0;  // of the request being read
   http::response<http::string_body> response_;
 };
 

@@ -2,7 +2,7 @@
 //
 // Study and run figures are read from the store itself on every scrape, so they are exact and
 // survive restarts (runs are never deleted, so the run counters are monotonic as Prometheus
-// counters must be). The Store API has no aggregate queries, so this file runs three read-only
+// counters must be). The Store API has no aggregate queries, so this file runs four read-only
 // aggregate queries against the documented schema (docs/store.md) on its own connection.
 #include <sqlite3.h>
 
@@ -23,6 +23,7 @@ constexpr std::array<double, 12> kBuckets = {0.01, 0.05, 0.1, 0.25, 0.5, 1, 2.5,
 
 struct StoreFigures {
   std::map<std::string, long long> studies;  // state -> count
+  std::map<std::string, long long> diagnoses;  // state -> count
   std::map<std::string, long long> runs;     // status -> count
   std::array<long long, kBuckets.size()> le{};
   long long count = 0;
@@ -68,10 +69,14 @@ std::string text(sqlite3_stmt* st, int col) {
 StoreFigures read_figures(const std::string& path) {
   ReadOnlyDb db(path);
   StoreFigures f;
-  for (const char* s : {"queued", "running", "succeeded", "failed", "cancelled"}) f.studies[s] = 0;
+  for (const char* s : {"queued", "running", "succeeded", "failed", "cancelled"})
+    f.studies[s] = f.diagnoses[s] = 0;
   for (const char* s : {"ok", "diverged", "invalid"}) f.runs[s] = 0;
   db.each("SELECT state, count(*) FROM studies GROUP BY state", [&](sqlite3_stmt* st) {
     f.studies[text(st, 0)] = sqlite3_column_int64(st, 1);
+  });
+  db.each("SELECT state, count(*) FROM diagnoses GROUP BY state", [&](sqlite3_stmt* st) {
+    f.diagnoses[text(st, 0)] = sqlite3_column_int64(st, 1);
   });
   db.each("SELECT status, count(*) FROM runs GROUP BY status", [&](sqlite3_stmt* st) {
     f.runs[text(st, 0)] = sqlite3_column_int64(st, 1);
@@ -137,6 +142,10 @@ Response Api::metrics(const Request& r) const {
   out += "# HELP stickslip_queue_depth Studies waiting to run (state queued).\n";
   out += "# TYPE stickslip_queue_depth gauge\n";
   out += "stickslip_queue_depth " + std::to_string(f.studies["queued"]) + "\n";
+  out += "# HELP stickslip_diagnoses Diagnoses in the store, by state.\n";
+  out += "# TYPE stickslip_diagnoses gauge\n";
+  for (const auto& [state, n] : f.diagnoses)
+    out += "stickslip_diagnoses{state=\"" + state + "\"} " + std::to_string(n) + "\n";
   out += "# HELP stickslip_http_responses_total HTTP responses since start, by status class.\n";
   out += "# TYPE stickslip_http_responses_total counter\n";
   for (int c = 1; c <= 5; ++c)

@@ -10,6 +10,8 @@
 #include <charconv>
 #include <cmath>
 #include <fstream>
+#include <functional>
+#include <iterator>
 #include <sstream>
 
 #include <nlohmann/json.hpp>
@@ -59,15 +61,11 @@ bool parse_double(const std::string& cell, double& out) {
   return ec == std::errc() && ptr == last;
 }
 
-// Reads one CSV; appends problems to errors (pointer = the file, message names the line).
-void read_csv(const fs::path& path, const std::string& pointer, MeasuredRun& run,
-              std::vector<SpecError>& errors) {
-  const std::string where = path.string();
-  std::ifstream in(path);
-  if (!in) {
-    errors.push_back({pointer, "cannot open file '" + where + "'"});
-    return;
-  }
+// Reads one CSV from in; appends problems to errors (pointer = the file, each message starts
+// with where, the file's name, and the 1-based line). The same checks for files on disk and for
+// CSV text sent to the server.
+void read_csv(std::istream& in, const std::string& where, const std::string& pointer,
+              MeasuredRun& run, std::vector<SpecError>& errors) {
   std::string line;
   std::size_t line_no = 0;
   // Header: the first non-empty line.
@@ -154,40 +152,34 @@ const json& measured_schema() {
 MeasuredError::MeasuredError(std::vector<SpecError> errors)
     : std::runtime_error(join_errors(errors)), errors_(std::move(errors)) {}
 
-MeasuredDataset load_measured(const fs::path& manifest) {
-  MeasuredDataset ds;
-  std::error_code ec;
-  ds.manifest = fs::absolute(manifest, ec);
-  if (ec) ds.manifest = manifest;
-  std::ifstream in(manifest);
-  if (!in) throw MeasuredError({{"", "cannot open manifest '" + manifest.string() + "'"}});
-  std::stringstream buffer;
-  buffer << in.rdbuf();
-  json doc;
-  if (json_nesting_depth(buffer.str()) > kMaxJsonDepth)
-    throw MeasuredError({{"", manifest.string() + ": arrays and objects are nested more than " +
-                                  std::to_string(kMaxJsonDepth) + " levels deep"}});
-  try {
-    doc = json::parse(buffer.str());
-  } catch (const json::parse_error& e) {
-    throw MeasuredError({{"", manifest.string() + ": malformed JSON: " + e.what()}});
-  }
-  std::vector<SpecError> errors = validate_against_schema(doc, measured_schema());
-  if (!errors.empty()) throw MeasuredError(std::move(errors));
+namespace {
 
+/// Where build_dataset gets a run's CSV: reads it into run (appending problems to errors).
+using CsvReader = std::function<void(std::size_t index, const std::string& run_pointer,
+                                     MeasuredRun& run, std::vector<SpecError>& errors)>;
+
+/// The manifest's runs, their conditions and their CSVs; schema errors are reported with
+/// pointers prefixed by prefix ("" for a manifest file, "/manifest" inside a server request).
+/// Throws MeasuredError listing every problem.
+MeasuredDataset build_dataset(const json& doc, const std::string& prefix, const CsvReader& csv) {
+  std::vector<SpecError> errors = validate_against_schema(doc, measured_schema());
+  if (!errors.empty()) {
+    for (auto& e : errors) e.pointer = prefix + e.pointer;
+    throw MeasuredError(std::move(errors));
+  }
+  MeasuredDataset ds;
   ds.name = doc.at("name").get<std::string>();
-  const fs::path dir = ds.manifest.parent_path();
   const json& runs = doc.at("runs");
   for (std::size_t i = 0; i < runs.size(); ++i) {
     const json& r = runs[i];
-    const std::string ptr = "/runs/" + std::to_string(i);
+    const std::string ptr = prefix + "/runs/" + std::to_string(i);
     MeasuredRun run;
     run.name = r.at("name").get<std::string>();
     run.file = r.at("file").get<std::string>();
     for (std::size_t j = 0; j < ds.runs.size(); ++j)
       if (ds.runs[j].name == run.name)
-        errors.push_back({ptr + "/name", "duplicate run name '" + run.name + "' (also /runs/" +
-                                             std::to_string(j) + ")"});
+        errors.push_back({ptr + "/name", "duplicate run name '" + run.name + "' (also " + prefix +
+                                             "/runs/" + std::to_string(j) + ")"});
     if (const auto it = r.find("conditions"); it != r.end()) {
       MeasuredConditions& c = run.conditions;
       for (auto [key, field] : {std::pair{"m", &c.m}, std::pair{"kd", &c.kd},
@@ -201,10 +193,98 @@ MeasuredDataset load_measured(const fs::path& manifest) {
                         "t_on = " + std::to_string(run.conditions.t_on) +
                             " s is after the end of the run (duration = " +
                             std::to_string(run.conditions.duration) + " s)"});
-    fs::path file = run.file;
-    if (file.is_relative()) file = dir / file;
-    read_csv(file, ptr + "/file", run, errors);
+    csv(i, ptr, run, errors);
     ds.runs.push_back(std::move(run));
+  }
+  if (!errors.empty()) throw MeasuredError(std::move(errors));
+  return ds;
+}
+
+/// A plain file name: no directory part, no "." or "..", no control characters.
+bool is_plain_file_name(const std::string& name) {
+  if (name.empty() || name == "." || name == ".." || name.size() > 255) return false;
+  for (const char c : name)
+    if (c == '/' || c == '\\' || static_cast<unsigned char>(c) < 0x20 || c == 0x7f) return false;
+  return true;
+}
+
+}  // namespace
+
+MeasuredDataset load_measured(const fs::path& manifest) {
+  std::error_code ec;
+  fs::path absolute = fs::absolute(manifest, ec);
+  if (ec) absolute = manifest;
+  std::ifstream in(manifest);
+  if (!in) throw MeasuredError({{"", "cannot open manifest '" + manifest.string() + "'"}});
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  json doc;
+  if (json_nesting_depth(buffer.str()) > kMaxJsonDepth)
+    throw MeasuredError({{"", manifest.string() + ": arrays and objects are nested more than " +
+                                  std::to_string(kMaxJsonDepth) + " levels deep"}});
+  try {
+    doc = json::parse(buffer.str());
+  } catch (const json::parse_error& e) {
+    throw MeasuredError({{"", manifest.string() + ": malformed JSON: " + e.what()}});
+  }
+  const fs::path dir = absolute.parent_path();
+  MeasuredDataset ds = build_dataset(
+      doc, "", [&](std::size_t, const std::string& ptr, MeasuredRun& run,
+                   std::vector<SpecError>& errors) {
+        fs::path file = run.file;
+        if (file.is_relative()) file = dir / file;
+        std::ifstream csv(file);
+        if (!csv) {
+          errors.push_back({ptr + "/file", "cannot open file '" + file.string() + "'"});
+          return;
+        }
+        read_csv(csv, file.string(), ptr + "/file", run, errors);
+      });
+  ds.manifest = absolute;
+  return ds;
+}
+
+MeasuredDataset load_measured(const json& manifest, const std::map<std::string, std::string>& files) {
+  // Every file name first, so that a path-like name is reported even when its run has other
+  // problems too.
+  std::vector<SpecError> errors;
+  for (const auto& [name, text] : files) {
+    if (!is_plain_file_name(name))
+      errors.push_back({pointer_append("/files", name),
+                        "'" + name + "' is not a plain file name (no '/', '\\', '.' or '..'; "
+                                     "1 to 255 characters)"});
+  }
+  std::vector<bool> used(files.size(), false);
+  bool schema_ok = false;  // build_dataset reached the CSVs
+  MeasuredDataset ds;
+  try {
+    ds = build_dataset(manifest, "/manifest", [&](std::size_t, const std::string& ptr,
+                                                  MeasuredRun& run, std::vector<SpecError>& errs) {
+      schema_ok = true;
+      if (!is_plain_file_name(run.file)) {
+        errs.push_back({ptr + "/file", "'" + run.file + "' is not a plain file name: a request "
+                                       "carries its CSVs in /files, not as paths"});
+        return;
+      }
+      const auto it = files.find(run.file);
+      if (it == files.end()) {
+        errs.push_back({ptr + "/file", "no content for file '" + run.file + "' in /files"});
+        return;
+      }
+      used[static_cast<std::size_t>(std::distance(files.begin(), it))] = true;
+      std::istringstream csv(it->second);
+      read_csv(csv, run.file, pointer_append("/files", run.file), run, errs);
+    });
+  } catch (const MeasuredError& e) {
+    errors.insert(errors.end(), e.errors().begin(), e.errors().end());
+  }
+  if (schema_ok) {
+    std::size_t i = 0;
+    for (const auto& [name, text] : files) {
+      if (!used[i++] && is_plain_file_name(name))
+        errors.push_back({pointer_append("/files", name),
+                          "file '" + name + "' is not named by any run of /manifest/runs"});
+    }
   }
   if (!errors.empty()) throw MeasuredError(std::move(errors));
   return ds;

@@ -130,6 +130,27 @@ LEFT JOIN runs AS r ON r.study_id = s.id
 GROUP BY s.id;
 )sql";
 
+// Added in schema version 2 (a version-1 database gets it by migrate_to_2 on its first
+// read-write open). A diagnosis is one job: the request (manifest + CSV contents) in, the
+// diagnosis.json document out.
+constexpr const char* kDiagnosesSql = R"sql(
+CREATE TABLE diagnoses (
+  id              TEXT PRIMARY KEY NOT NULL,
+  name            TEXT NOT NULL,
+  request_json    TEXT NOT NULL,
+  request_hash    TEXT NOT NULL,
+  state           TEXT NOT NULL DEFAULT 'queued'
+                  CHECK (state IN ('queued', 'running', 'succeeded', 'failed', 'cancelled')),
+  created_at      TEXT NOT NULL,
+  started_at      TEXT,
+  finished_at     TEXT,
+  error           TEXT,
+  result_json     TEXT,
+  idempotency_key TEXT UNIQUE
+);
+CREATE INDEX diagnoses_state ON diagnoses (state);
+)sql";
+
 // ---------------------------------------------------------------------------------------------
 // Errors
 // ---------------------------------------------------------------------------------------------
@@ -397,18 +418,47 @@ DbPtr open_handle(const fs::path& path, Store::Mode mode, std::chrono::milliseco
   return db;
 }
 
-void require_schema_version(const Connection& conn) {
+std::string read_schema_version(const Connection& conn) {
   Statement st(conn, "SELECT value FROM meta WHERE key = 'schema_version'",
                "reading meta.schema_version");
   if (!st.step()) fail(conn.path(), "corrupt stickslip database: meta has no schema_version");
-  const std::string value = st.text(0);
-  if (value != std::to_string(kStoreSchemaVersion))
+  return st.text(0);
+}
+
+/// Version 1 -> 2: adds the diagnoses table; every existing table and row is kept as it is.
+/// Re-checks the version inside the write transaction, so two processes opening the same
+/// version-1 file at once migrate it once.
+void migrate_to_2(const Connection& conn) {
+  Transaction tx(conn, Transaction::Kind::kWrite, "migrating the schema from version 1 to 2");
+  if (read_schema_version(conn) == "1") {
+    conn.exec(kDiagnosesSql, "creating the diagnoses table (schema version 2)");
+    conn.exec("UPDATE meta SET value = '2' WHERE key = 'schema_version'",
+              "writing meta.schema_version = 2");
+    Statement st(conn, "INSERT OR REPLACE INTO meta (key, value) VALUES ('migrated_at', ?1)",
+                 "writing meta.migrated_at");
+    st.bind_text(1, utc_now_iso8601()).run();
+  }
+  tx.commit("the schema migration to version 2");
+}
+
+/// Accepts this build's version; a read-write open migrates a version-1 database (see
+/// migrate_to_2), a read-only open reads it as it is (studies and runs only).
+void require_schema_version(const Connection& conn, Store::Mode mode) {
+  std::string value = read_schema_version(conn);
+  if (value == "1" && mode != Store::Mode::kReadOnly) {
+    migrate_to_2(conn);
+    value = read_schema_version(conn);
+  }
+  if (value != std::to_string(kStoreSchemaVersion) &&
+      !(value == "1" && mode == Store::Mode::kReadOnly))
     fail(conn.path(), "stickslip schema_version " + value + " is not supported by this build "
-                          "(it reads version " + std::to_string(kStoreSchemaVersion) + ")");
+                          "(it reads version " + std::to_string(kStoreSchemaVersion) +
+                          ", and migrates version 1)");
 }
 
 void write_schema(const Connection& conn) {
   conn.exec(kSchemaSql, "creating the schema");
+  conn.exec(kDiagnosesSql, "creating the diagnoses table");
   conn.exec(("PRAGMA application_id = " + std::to_string(kStoreApplicationId)).c_str(),
             "setting the application_id");
   Statement ins(conn, "INSERT INTO meta (key, value) VALUES (?1, ?2)", "writing meta");
@@ -453,7 +503,7 @@ Connection open_connection(const fs::path& path, Store::Mode mode,
   } else if (!id.ours()) {
     fail_foreign(path, id);
   }
-  require_schema_version(conn);
+  require_schema_version(conn, mode);
   configure(conn, mode);
   return conn;
 }
@@ -612,7 +662,8 @@ std::string param_hash(std::string_view canonical_json) {
   return buf;
 }
 
-std::string new_study_id() {
+namespace {
+std::string new_id(const char* prefix) {
   const auto ms = std::chrono::duration_cast<std::chrono::milliseconds>(
                       std::chrono::system_clock::now().time_since_epoch())
                       .count();
@@ -620,9 +671,13 @@ std::string new_study_id() {
   const std::uint32_t rnd = rd();
   char buf[32];
   const std::uint64_t ms48 = static_cast<std::uint64_t>(ms) & 0xffffffffffffULL;
-  std::snprintf(buf, sizeof buf, "st-%012" PRIx64 "%08" PRIx32, ms48, rnd);
+  std::snprintf(buf, sizeof buf, "%s-%012" PRIx64 "%08" PRIx32, prefix, ms48, rnd);
   return buf;
 }
+}  // namespace
+
+std::string new_study_id() { return new_id("st"); }
+std::string new_diagnosis_id() { return new_id("dg"); }
 
 std::string utc_now_iso8601() {
   const auto now = std::chrono::system_clock::now();
@@ -836,6 +891,138 @@ std::optional<std::vector<TracePoint>> Store::get_trace(const std::string& study
   }
   return trace;
 }
+
+// --- diagnoses ---
+
+namespace {
+
+constexpr const char* kDiagnosisColumns =
+    "id, name, request_hash, state, created_at, started_at, finished_at, error, idempotency_key";
+
+DiagnosisRecord read_diagnosis(const Statement& st, const fs::path& path) {
+  DiagnosisRecord r;
+  r.id = st.text(0);
+  r.name = st.text(1);
+  r.request_hash = st.text(2);
+  const auto state = parse_study_state(st.text(3));
+  if (!state) fail(path, "diagnosis " + r.id + " has an unknown state '" + st.text(3) + "'");
+  r.state = *state;
+  r.created_at = st.text(4);
+  r.started_at = st.opt_text(5);
+  r.finished_at = st.opt_text(6);
+  r.error = st.opt_text(7);
+  r.idempotency_key = st.opt_text(8);
+  return r;
+}
+
+std::optional<DiagnosisRecord> diagnosis_where(const Connection& conn, const char* where,
+                                               const std::string& value, bool with_result) {
+  const std::string sql = std::string("SELECT ") + kDiagnosisColumns +
+                          (with_result ? ", result_json" : "") + " FROM diagnoses " + where;
+  Statement st(conn, sql.c_str(), "reading a diagnosis");
+  st.bind_text(1, value);
+  if (!st.step()) return std::nullopt;
+  DiagnosisRecord r = read_diagnosis(st, conn.path());
+  if (with_result) r.result_json = st.opt_text(9);
+  return r;
+}
+
+}  // namespace
+
+CreatedDiagnosis Store::create_diagnosis(const NewDiagnosis& d) {
+  const std::string id = d.id.empty() ? new_diagnosis_id() : d.id;
+  if (!is_json_object(d.request_json))
+    fail(path(), "creating diagnosis " + id + ": request_json is not a JSON object");
+  const auto& conn = impl_->conn;
+  Transaction tx(conn, Transaction::Kind::kWrite, "creating diagnosis " + id);
+  if (d.idempotency_key) {
+    if (auto existing = diagnosis_where(conn, "WHERE idempotency_key = ?1", *d.idempotency_key,
+                                        true)) {
+      tx.commit("idempotency lookup");
+      return {std::move(*existing), false};
+    }
+  }
+  if (diagnosis_where(conn, "WHERE id = ?1", id, false))
+    fail(path(), "creating diagnosis " + id + ": a diagnosis with this id already exists");
+  Statement st(conn,
+               "INSERT INTO diagnoses (id, name, request_json, request_hash, state, created_at, "
+               "idempotency_key) VALUES (?1, ?2, ?3, ?4, 'queued', ?5, ?6)",
+               "inserting diagnosis " + id);
+  st.bind_text(1, id).bind_text(2, d.name).bind_text(3, d.request_json);
+  st.bind_text(4, d.request_hash).bind_text(5, utc_now_iso8601());
+  st.bind_opt_text(6, d.idempotency_key).run();
+  auto stored = diagnosis_where(conn, "WHERE id = ?1", id, true);
+  tx.commit("diagnosis " + id);
+  return {std::move(stored.value()), true};
+}
+
+std::optional<DiagnosisRecord> Store::get_diagnosis(const std::string& id) {
+  return diagnosis_where(impl_->conn, "WHERE id = ?1", id, true);
+}
+
+std::optional<std::string> Store::get_diagnosis_request(const std::string& id) {
+  Statement st(impl_->conn, "SELECT request_json FROM diagnoses WHERE id = ?1",
+               "reading the request of diagnosis " + id);
+  st.bind_text(1, id);
+  if (!st.step()) return std::nullopt;
+  return st.text(0);
+}
+
+std::optional<DiagnosisRecord> Store::find_diagnosis_by_idempotency_key(const std::string& key) {
+  return diagnosis_where(impl_->conn, "WHERE idempotency_key = ?1", key, true);
+}
+
+std::vector<DiagnosisRecord> Store::list_diagnoses(std::size_t page_size,
+                                                   const std::string& after_id) {
+  const std::string sql = std::string("SELECT ") + kDiagnosisColumns +
+                          " FROM diagnoses WHERE id > ?1 ORDER BY id LIMIT ?2";
+  Statement st(impl_->conn, sql.c_str(), "listing diagnoses");
+  st.bind_text(1, after_id).bind_int(2, to_limit(page_size));
+  std::vector<DiagnosisRecord> out;
+  while (st.step()) out.push_back(read_diagnosis(st, path()));
+  return out;
+}
+
+void Store::set_diagnosis_state(const std::string& id, StudyState state,
+                                const std::optional<std::string>& error) {
+  Statement st(impl_->conn,
+               "UPDATE diagnoses SET state = ?1, error = ?2, "
+               "started_at = CASE WHEN ?1 = 'running' THEN COALESCE(started_at, ?3) "
+               "                  ELSE started_at END, "
+               "finished_at = CASE WHEN ?1 IN ('succeeded', 'failed', 'cancelled') THEN ?3 "
+               "                   ELSE NULL END "
+               "WHERE id = ?4",
+               "setting the state of diagnosis " + id);
+  st.bind_text(1, to_string(state)).bind_opt_text(2, error).bind_text(3, utc_now_iso8601());
+  st.bind_text(4, id).run();
+  if (impl_->conn.changes() == 0)
+    fail(path(), "setting the state of diagnosis " + id + ": no such diagnosis");
+}
+
+bool Store::requeue_diagnosis(const std::string& id) {
+  Statement st(impl_->conn,
+               "UPDATE diagnoses SET state = 'queued' WHERE id = ?1 AND state = 'running'",
+               "re-queueing diagnosis " + id);
+  st.bind_text(1, id).run();
+  return impl_->conn.changes() > 0;
+}
+
+bool Store::finish_diagnosis(const std::string& id, StudyState state,
+                             const std::optional<std::string>& result_json,
+                             const std::optional<std::string>& error) {
+  if (state != StudyState::kSucceeded && state != StudyState::kFailed)
+    fail(path(), "finishing diagnosis " + id + ": the state must be succeeded or failed");
+  if (result_json && !is_json_object(*result_json))
+    fail(path(), "finishing diagnosis " + id + ": result_json is not a JSON object");
+  Statement st(impl_->conn,
+               "UPDATE diagnoses SET state = ?1, result_json = ?2, error = ?3, finished_at = ?4 "
+               "WHERE id = ?5 AND state IN ('queued', 'running')",
+               "finishing diagnosis " + id);
+  st.bind_text(1, to_string(state)).bind_opt_text(2, result_json).bind_opt_text(3, error);
+  st.bind_text(4, utc_now_iso8601()).bind_text(5, id).run();
+  return impl_->conn.changes() > 0;
+}
+
 
 // ---------------------------------------------------------------------------------------------
 // RunWriter

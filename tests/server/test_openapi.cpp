@@ -69,6 +69,9 @@ TEST(OpenApi, EveryServedRouteIsDocumentedAndEveryDocumentedRouteIsServed) {
   const Response schema = api.handle(testing::get("/v1/study.schema.json"));
   ASSERT_EQ(schema.status, 200);
   EXPECT_EQ(json::parse(schema.body)["$schema"], "https://json-schema.org/draft/2020-12/schema");
+  const Response diag = api.handle(testing::get("/v1/diagnosis_request.schema.json"));
+  ASSERT_EQ(diag.status, 200);
+  EXPECT_EQ(json::parse(diag.body)["required"], json({"manifest", "files"}));
 }
 
 TEST(OpenApi, EveryLocalReferenceResolves) {
@@ -77,7 +80,8 @@ TEST(OpenApi, EveryLocalReferenceResolves) {
   collect_refs(doc, &refs);
   ASSERT_FALSE(refs.empty());
   for (const auto& ref : refs) {
-    if (ref == "study.schema.json") continue;  // served at /v1/study.schema.json (tested above)
+    // Served at /v1/study.schema.json and /v1/diagnosis_request.schema.json (tested above).
+    if (ref == "study.schema.json" || ref == "diagnosis_request.schema.json") continue;
     ASSERT_TRUE(ref.starts_with("#/")) << ref;
     EXPECT_TRUE(doc.contains(json::json_pointer(ref.substr(1)))) << ref;
   }

@@ -7,6 +7,7 @@
 
 #include <boost/asio.hpp>
 #include <chrono>
+#include <cstdio>
 #include <thread>
 
 #include "stickslip/server/api.h"
@@ -108,6 +109,70 @@ TEST_F(TransportTest, BodyOverTheLimitIs413BeforeItIsRead) {
   EXPECT_EQ(r.substr(0, 12), "HTTP/1.1 413") << r;
   EXPECT_NE(r.find("application/problem+json"), std::string::npos);
   EXPECT_EQ(get_healthz().substr(0, 12), "HTTP/1.1 200");
+}
+
+TEST_F(TransportTest, DiagnosesHaveTheirOwnBodyLimit) {
+  ServerOptions net;
+  net.path_body_limits["/v1/diagnoses"] = 16384;
+  start(net);
+  // 8 KB: over the default limit of 2 KB for studies (413 on Content-Length, before the body) ...
+  {
+    RawClient c(server_->port());
+    c.send("POST /v1/studies HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n"
+           "Content-Length: 8192\r\n\r\n");
+    const std::string r = c.read_to_eof();
+    EXPECT_EQ(r.substr(0, 12), "HTTP/1.1 413") << r;
+    EXPECT_NE(r.find("limit of 2048 bytes"), std::string::npos) << r;
+  }
+  // ... but read whole for diagnoses and handed to the handler (422: not a valid request) ...
+  {
+    RawClient c(server_->port());
+    const std::string body = "{\"manifest\": {}, \"pad\": \"" + std::string(8000, 'x') + "\"}";
+    c.send("POST /v1/diagnoses HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n"
+           "Content-Length: " + std::to_string(body.size()) + "\r\nConnection: close\r\n\r\n" + body);
+    const std::string r = c.read_to_eof();
+    EXPECT_EQ(r.substr(0, 12), "HTTP/1.1 422") << r.substr(0, 300);
+    EXPECT_NE(r.find("/pad"), std::string::npos);
+  }
+  // ... up to its own limit, also for a chunked body that never says its length.
+  {
+    RawClient c(server_->port());
+    c.send("POST /v1/diagnoses HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n"
+           "Content-Length: 20000\r\n\r\n");
+    const std::string r = c.read_to_eof();
+    EXPECT_EQ(r.substr(0, 12), "HTTP/1.1 413") << r;
+    EXPECT_NE(r.find("limit of 16384 bytes"), std::string::npos) << r;
+  }
+  {
+    RawClient c(server_->port());
+    const std::string chunk(10000, ' ');
+    char size[16];
+    std::snprintf(size, sizeof size, "%zx", chunk.size());
+    c.send("POST /v1/diagnoses HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n"
+           "Transfer-Encoding: chunked\r\n\r\n" + std::string(size) + "\r\n" + chunk + "\r\n" +
+           std::string(size) + "\r\n" + chunk + "\r\n0\r\n\r\n");
+    const std::string r = c.read_to_eof();
+    EXPECT_EQ(r.substr(0, 12), "HTTP/1.1 413") << r;
+  }
+  EXPECT_EQ(get_healthz().substr(0, 12), "HTTP/1.1 200");
+}
+
+TEST_F(TransportTest, ExpectContinueIsAnsweredBeforeTheBodyIsSent) {
+  start();
+  RawClient c(server_->port());
+  const std::string body = "{\"a\": 1}";
+  c.send("POST /v1/diagnoses HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n"
+         "Expect: 100-continue\r\nContent-Length: " + std::to_string(body.size()) + "\r\n\r\n");
+  const std::string interim = c.read_response();  // before any byte of the body
+  EXPECT_EQ(interim, "HTTP/1.1 100 Continue\r\n\r\n");
+  c.send(body);
+  const std::string r = c.read_response();
+  EXPECT_EQ(r.substr(0, 12), "HTTP/1.1 422") << r;
+  // Over the limit: no 100, the 413 straight away.
+  RawClient big(server_->port());
+  big.send("POST /v1/studies HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n"
+           "Expect: 100-continue\r\nContent-Length: 100000\r\n\r\n");
+  EXPECT_EQ(big.read_to_eof().substr(0, 12), "HTTP/1.1 413");
 }
 
 TEST_F(TransportTest, SlowClientIsCutOffByTheReadTimeout) {

@@ -9,6 +9,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <random>
 #include <string>
 
@@ -184,3 +185,87 @@ TEST(MeasuredRmse, IsTheRootMeanSquareOverTheWindowWithLinearInterpolation) {
 }
 
 }  // namespace
+
+// --- the same dataset held in memory (the server's POST /v1/diagnoses) ---
+
+namespace {
+
+/// Every error of loading {"manifest": m, "files": files} from memory as "pointer | message".
+std::vector<std::string> memory_errors(const std::string& manifest,
+                                       const std::map<std::string, std::string>& files) {
+  try {
+    load_measured(nlohmann::json::parse(manifest), files);
+  } catch (const MeasuredError& e) {
+    std::vector<std::string> out;
+    for (const auto& err : e.errors()) out.push_back(err.pointer + " | " + err.message);
+    return out;
+  }
+  return {};
+}
+
+}  // namespace
+
+TEST_F(Measured, InMemoryDatasetLoadsLikeTheSameFiles) {
+  const std::string csv = good_csv(40);
+  write("a.csv", csv);
+  const std::string m =
+      R"({"name": "stand", "runs": [{"name": "r", "file": "a.csv", "conditions": {"va": 0.002}}]})";
+  write("m.json", m);
+  const MeasuredDataset from_file = load_measured(dir_ / "m.json");
+  const MeasuredDataset from_memory = load_measured(nlohmann::json::parse(m), {{"a.csv", csv}});
+  ASSERT_EQ(from_memory.runs.size(), 1u);
+  EXPECT_EQ(from_memory.name, "stand");
+  EXPECT_EQ(from_memory.runs[0].t, from_file.runs[0].t);
+  EXPECT_EQ(from_memory.runs[0].Fd, from_file.runs[0].Fd);
+  EXPECT_DOUBLE_EQ(from_memory.runs[0].conditions.va, 0.002);
+  EXPECT_TRUE(from_memory.manifest.empty());
+}
+
+TEST_F(Measured, InMemoryCsvProblemsGiveTheFileLoadersMessagesAtTheFilesPointer) {
+  std::string bad_cell = good_csv();
+  bad_cell.replace(bad_cell.find("\n0.030000,") + 1, 8, "0.03abc");
+  const std::vector<std::string> cases = {"time,Fd\n0,1\n", bad_cell, good_csv() + "0.2,8\n",
+                                          good_csv() + "10,nan\n", good_csv(5)};
+  const std::string m = R"({"name": "stand", "runs": [{"name": "r", "file": "a.csv"}]})";
+  for (const auto& csv : cases) {
+    write("a.csv", csv);
+    manifest(R"([{"name": "r", "file": "a.csv"}])");
+    const std::string from_file = only_error();
+    const auto errors = memory_errors(m, {{"a.csv", csv}});
+    ASSERT_EQ(errors.size(), 1u) << csv.substr(0, 40);
+    // File: "/runs/0/file | /tmp/.../a.csv:5: problem"; memory: "/files/a.csv | a.csv:5: problem".
+    const std::string problem = from_file.substr(from_file.find("a.csv"));
+    EXPECT_EQ(errors[0], "/files/a.csv | " + problem);
+  }
+}
+
+TEST_F(Measured, InMemoryMissingPathLikeAndUnusedFilesAndSchemaErrorsArePointed) {
+  const std::string csv = good_csv();
+  // A run's file with no content.
+  auto e = memory_errors(R"({"name": "s", "runs": [{"name": "r", "file": "b.csv"}]})",
+                         {{"b.csv.txt", csv}});
+  ASSERT_EQ(e.size(), 2u);
+  EXPECT_NE(e[0].find("/manifest/runs/0/file | no content for file 'b.csv'"), std::string::npos)
+      << e[0];
+  EXPECT_NE(e[1].find("/files/b.csv.txt | file 'b.csv.txt' is not named by any run"),
+            std::string::npos)
+      << e[1];
+  // Path-like names, in the manifest and in files: nothing is read from disk.
+  write("a.csv", csv);
+  e = memory_errors(R"({"name": "s", "runs": [{"name": "r", "file": ")" + (dir_ / "a.csv").string() +
+                        R"("}]})",
+                    {{"../a.csv", csv}});
+  ASSERT_EQ(e.size(), 2u);
+  EXPECT_NE(e[0].find("/files/..~1a.csv | '../a.csv' is not a plain file name"), std::string::npos)
+      << e[0];
+  EXPECT_NE(e[1].find("/manifest/runs/0/file | '" + (dir_ / "a.csv").string() +
+                      "' is not a plain file name"),
+            std::string::npos)
+      << e[1];
+  // Schema errors point under /manifest.
+  e = memory_errors(R"({"name": "s", "runs": [{"name": "r", "file": "a.csv",
+                        "conditions": {"m": -1}}]})",
+                    {{"a.csv", csv}});
+  ASSERT_EQ(e.size(), 1u);
+  EXPECT_TRUE(e[0].starts_with("/manifest/runs/0/conditions/m | ")) << e[0];
+}

@@ -51,6 +51,16 @@ class Remote {
   nlohmann::json wait(const std::string& id, double interval_s,
                       const std::function<void(const nlohmann::json&)>& on_progress);
 
+  /// POST /v1/diagnoses with a request document (schemas/diagnosis_request.schema.json).
+  nlohmann::json submit_diagnosis(const std::string& request_json,
+                                  const std::string& idempotency_key = "");
+  nlohmann::json diagnosis(const std::string& id);
+  nlohmann::json cancel_diagnosis(const std::string& id);
+  /// Polls the diagnosis until it is succeeded, failed or cancelled, calling on_change with
+  /// each new state. Returns the final resource.
+  nlohmann::json wait_diagnosis(const std::string& id, double interval_s,
+                                const std::function<void(const nlohmann::json&)>& on_change);
+
   const ServerUrl& server() const noexcept { return server_; }
 
  private:

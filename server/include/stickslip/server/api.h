@@ -9,6 +9,10 @@
 //   POST /v1/studies/{id}:cancel
 //   GET  /v1/studies/{id}/indices      Sobol / Morris indices (output=a,b; confidence=0.95)
 //   GET  /v1/reports                   nightly reports (dates); GET /v1/reports/{date}/...
+//   POST /v1/diagnoses                 202 + Location; manifest + CSV contents (+ options)
+//   GET  /v1/diagnoses                 page_size, page_token -> next_page_token
+//   GET  /v1/diagnoses/{id}            state, timestamps, and diagnosis.json once succeeded
+//   POST /v1/diagnoses/{id}:cancel
 //   GET  /healthz, GET /metrics (Prometheus text), GET /v1/openapi.json
 //
 // Every handler leases its own Store connection from the pool, so handlers may run on any number
@@ -24,6 +28,7 @@
 #include <memory>
 #include <string>
 
+#include "stickslip/server/diagnosis_worker.h"
 #include "stickslip/server/http.h"
 #include "stickslip/server/router.h"
 #include "stickslip/server/scheduler.h"
@@ -36,6 +41,10 @@ struct ApiOptions {
   std::filesystem::path db = "stickslip.db";
   studies::Limits limits;                 ///< runs per study, durations, dt bounds
   std::size_t max_body_bytes = 1 << 20;   ///< larger request bodies get 413 [bytes]
+  /// The same for POST /v1/diagnoses, whose body carries whole CSV files: 64 MiB holds about
+  /// 3 runs x 20 s x 2 kHz many times over (one sample line is ~25 bytes) [bytes].
+  std::size_t max_diagnosis_body_bytes = std::size_t{64} << 20;
+  int diagnosis_threads = 0;              ///< DiagnoseOptions::threads when re-checking requests
   std::string token;                      ///< bearer token for state changes; empty: none
   std::size_t default_page_size = 50;     ///< studies per page when page_size is absent
   std::size_t default_runs_page_size = 100;
@@ -53,7 +62,9 @@ class Api {
  public:
   /// Opens the store (throws studies::StoreError naming the path when it cannot) and registers
   /// the routes. scheduler may be null (then nothing runs; cancel acts on the store directly).
-  Api(ApiOptions options, Scheduler* scheduler = nullptr);
+  /// diagnoses may be null too (then diagnoses are only queued; cancel acts on the store).
+  Api(ApiOptions options, Scheduler* scheduler = nullptr,
+      DiagnosisScheduler* diagnoses = nullptr);
 
   /// Routes and handles one request. Never throws.
   Response handle(const Request& request) const;
@@ -75,6 +86,10 @@ class Api {
   /// A file of a report: reports_dir/date/sub/name (sub "" or "plots"); names are checked.
   Response get_report_file(const Request& r, const std::string& date, const std::string& sub,
                            const std::string& name) const;
+  Response create_diagnosis(const Request& r) const;
+  Response list_diagnoses(const Request& r) const;
+  Response get_diagnosis(const Request& r, const std::string& id) const;
+  Response cancel_diagnosis(const Request& r, const std::string& id) const;
   Response healthz(const Request& r) const;
   Response metrics(const Request& r) const;
   Response openapi(const Request& r) const;
@@ -83,6 +98,7 @@ class Api {
 
   ApiOptions options_;
   Scheduler* scheduler_;
+  DiagnosisScheduler* diagnoses_;
   mutable StorePool pool_;
   Router router_;
   mutable std::array<std::atomic<std::uint64_t>, 6> responses_{};

@@ -12,11 +12,15 @@
 //    that sends slowly cannot hold a connection (and its memory) for long;
 //  - write_timeout: the same for writing the response;
 //  - max_body_bytes / max_header_bytes: larger requests get 413 / 431 and the connection closes;
+//    path_body_limits raises (or lowers) the body limit for exact request paths (the header is
+//    read first, then the body with the limit of its path), e.g. "/v1/diagnoses" -> 64 MiB;
+//    a request with "Expect: 100-continue" gets "100 Continue" once its header is accepted;
 //  - max_connections: connections beyond it get 503 immediately and are closed.
 
 #include <chrono>
 #include <cstddef>
 #include <functional>
+#include <map>
 #include <memory>
 #include <string>
 
@@ -30,6 +34,7 @@ struct ServerOptions {
   int io_threads = 1;
   int handler_threads = 2;
   std::size_t max_body_bytes = 1 << 20;
+  std::map<std::string, std::size_t> path_body_limits;  ///< exact path (no query) -> bytes
   std::size_t max_header_bytes = 16 << 10;
   std::size_t max_connections = 256;
   std::chrono::milliseconds idle_timeout{30000};

@@ -14,10 +14,13 @@
 
 #include <cstddef>
 #include <filesystem>
+#include <map>
 #include <stdexcept>
 #include <string>
 #include <string_view>
 #include <vector>
+
+#include <nlohmann/json.hpp>
 
 #include "stickslip/engine/params.h"
 #include "stickslip/studies/json_schema.h"
@@ -65,6 +68,16 @@ inline constexpr std::size_t kMinMeasuredSamples = 20;
 
 /// Loads and checks a manifest and all its CSV files. Throws MeasuredError listing every problem.
 MeasuredDataset load_measured(const std::filesystem::path& manifest);
+
+/// The same checks on a dataset held in memory (the server's POST /v1/diagnoses): manifest is
+/// the parsed manifest, files maps each run's `file` (a plain name, no directory part) to the
+/// CSV text. Nothing is read from disk. Error pointers are into the document
+/// {"manifest": manifest, "files": files}: schema errors under /manifest, a path-like or missing
+/// file at /manifest/runs/<i>/file, CSV problems at /files/<name> with a message
+/// "<name>:<line>: <problem>", a path-like name or a file no run names at /files/<name>.
+/// The dataset's manifest path is empty. Throws MeasuredError listing every problem.
+MeasuredDataset load_measured(const nlohmann::json& manifest,
+                              const std::map<std::string, std::string>& files);
 
 /// Applies a run's conditions to cfg: drive m, k_d, v_d, and the stages [0, t_on) still and
 /// [t_on, duration) at va, f (only the second when t_on = 0, only the first when

@@ -45,8 +45,10 @@ class StoreError : public std::runtime_error {
 
 /// PRAGMA application_id of a stickslip database: "SSLP" = 0x53534C50.
 inline constexpr std::int32_t kStoreApplicationId = 0x53534C50;
-/// meta.schema_version written by (and the only one accepted by) this build.
-inline constexpr int kStoreSchemaVersion = 1;
+/// meta.schema_version written by this build. Version 2 added the diagnoses table; a version-1
+/// database is migrated to 2 on its first read-write open (nothing in it changes but the added
+/// table and meta rows), and read as it is by a read-only open.
+inline constexpr int kStoreSchemaVersion = 2;
 
 /// 64-bit FNV-1a of the bytes of canonical_json as 16 lowercase hex digits.
 /// Hand-written on purpose: SQLite has no hash function, and a parameter fingerprint needs no
@@ -57,6 +59,8 @@ std::string param_hash(std::string_view canonical_json);
 /// A new, short, unique study id "st-" + 12 hex digits of the UTC time in ms + 8 random hex
 /// digits, e.g. "st-018f3a2b4c5d9e8f7a6b". Ids made by it sort in creation order.
 std::string new_study_id();
+/// The same for diagnoses: "dg-" + 12 hex digits of the UTC time in ms + 8 random hex digits.
+std::string new_diagnosis_id();
 
 /// Current UTC time as ISO-8601 with milliseconds, e.g. "2024-05-01T12:34:56.789Z".
 std::string utc_now_iso8601();
@@ -88,6 +92,30 @@ struct StudyRecord {
   std::optional<std::string> finished_at;  ///< set on a switch to succeeded/failed/cancelled
   std::optional<std::string> error;
   std::optional<std::string> idempotency_key, request_hash;
+};
+
+/// Input of Store::create_diagnosis.
+struct NewDiagnosis {
+  std::string id;  ///< empty: new_diagnosis_id() is used
+  std::string name;          ///< the dataset's name
+  std::string request_json;  ///< the whole request {"manifest", "files", "options"}; an object
+  std::string request_hash;  ///< param_hash of the canonical request
+  std::optional<std::string> idempotency_key;  ///< unique over all diagnoses when set
+};
+
+/// One row of the diagnoses table (request_json is read separately: it holds the CSVs).
+struct DiagnosisRecord {
+  std::string id, name, request_hash;
+  StudyState state = StudyState::kQueued;  ///< the same five states as a study
+  std::string created_at;
+  std::optional<std::string> started_at, finished_at, error;
+  std::optional<std::string> result_json;  ///< diagnosis.json (studies::to_json) once succeeded
+  std::optional<std::string> idempotency_key;
+};
+
+struct CreatedDiagnosis {
+  DiagnosisRecord diagnosis;
+  bool created = false;  ///< false: the idempotency key was already stored; this is that row
 };
 
 struct CreatedStudy {
@@ -203,6 +231,30 @@ class Store {
   /// The stored trace of a run; nullopt when the run has none (or does not exist).
   std::optional<std::vector<TracePoint>> get_trace(const std::string& study_id,
                                                    std::int64_t design_index);
+
+  // --- diagnoses (schema version 2) ---
+  /// Inserts a diagnosis in state queued; atomic with respect to the idempotency key like
+  /// create_study. Throws StoreError when the id exists or request_json is not a JSON object.
+  CreatedDiagnosis create_diagnosis(const NewDiagnosis& new_diagnosis);
+  /// The row with its result (nullopt for an unknown id).
+  std::optional<DiagnosisRecord> get_diagnosis(const std::string& id);
+  /// The stored request_json, or nullopt for an unknown id.
+  std::optional<std::string> get_diagnosis_request(const std::string& id);
+  std::optional<DiagnosisRecord> find_diagnosis_by_idempotency_key(const std::string& key);
+  /// Keyset pagination in id order, without results (result_json left empty).
+  std::vector<DiagnosisRecord> list_diagnoses(std::size_t page_size,
+                                              const std::string& after_id = "");
+  /// As set_study_state, for a diagnosis. Throws StoreError for an unknown id.
+  void set_diagnosis_state(const std::string& id, StudyState state,
+                           const std::optional<std::string>& error = std::nullopt);
+  /// running -> queued (a worker stopped by shutdown); returns whether the state changed.
+  bool requeue_diagnosis(const std::string& id);
+  /// Stores the outcome of a run (state succeeded with result_json, or failed with error) in
+  /// one statement, but only while the diagnosis is queued or running: returns false, changing
+  /// nothing, when it was cancelled (or finished) meanwhile.
+  bool finish_diagnosis(const std::string& id, StudyState state,
+                        const std::optional<std::string>& result_json,
+                        const std::optional<std::string>& error = std::nullopt);
 
   struct Impl;
 

@@ -1,0 +1,96 @@
+#pragma once
+// The diagnosis worker: one thread of its own (never an HTTP I/O or handler thread) that takes
+// queued diagnoses from the store in creation order and runs studies::diagnose on each (OpenMP
+// inside), storing studies::to_json of the result (the diagnosis.json of `stickslip diagnose`).
+//
+// - The store is the queue: diagnoses in state queued or running (running = interrupted by a
+//   crash or a shutdown) are picked up in id (= creation) order, so after a restart every
+//   unfinished diagnosis runs again by itself. A diagnosis is one unit: it reruns from the start.
+// - A diagnosis is claimed under a mutex, which also switches it to running in the store; a
+//   cancel takes the same mutex, so it either cancels a waiting diagnosis in the store or finds
+//   it claimed.
+// - studies::diagnose cannot be interrupted. Cancelling a running diagnosis marks it cancelled at
+//   once; its computation goes on until it ends and its result is then discarded (the store
+//   only accepts a result while the diagnosis is queued or running).
+// - shutdown(grace): no diagnosis is claimed any more; a running one is put back to queued in
+//   the store at once (so the next start reruns it), then the thread gets `grace` to finish. If
+//   it finishes, its result is stored; if not, the thread is detached (it owns everything it
+//   uses) and shutdown returns false, so the process can exit without waiting minutes.
+// - A stored request that no longer parses (e.g. the schema changed) fails with the errors.
+
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
+#include <filesystem>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+
+#include <nlohmann/json.hpp>
+
+#include "stickslip/server/scheduler.h"
+#include "stickslip/studies/diagnose.h"
+
+namespace stickslip::server {
+
+/// The diagnosis as a function of the dataset and the options, returning the diagnosis.json
+/// document (injected so that tests can control its timing).
+using DiagnoseFn = std::function<nlohmann::json(const studies::MeasuredDataset&,
+                                                const studies::DiagnoseOptions&)>;
+
+/// studies::to_json(studies::diagnose(data, options)): what stickslipd runs.
+nlohmann::json run_diagnosis(const studies::MeasuredDataset& data,
+                             const studies::DiagnoseOptions& options);
+
+/// What the HTTP handlers need from the diagnosis worker.
+class DiagnosisScheduler {
+ public:
+  virtual ~DiagnosisScheduler() = default;
+  /// A diagnosis was queued: look at the store now rather than at the next poll.
+  virtual void notify_diagnosis() = 0;
+  /// Cancels a diagnosis (queued or running -> cancelled); store is the caller's connection.
+  virtual CancelOutcome cancel_diagnosis(studies::Store& store, const std::string& id) = 0;
+};
+
+/// Cancellation without a worker: queued or running -> cancelled; terminal: unchanged.
+CancelOutcome cancel_diagnosis_unclaimed(studies::Store& store, const std::string& id);
+
+struct DiagnosisWorkerOptions {
+  int threads = 0;                        ///< OpenMP threads per diagnosis; 0 = OpenMP's default
+  std::chrono::milliseconds poll{1000};   ///< how often the store is scanned without a notify
+  int nice = 10;                          ///< nice value of the worker thread (see worker.h)
+
+  bool IsValid(std::string* why) const;
+};
+
+class DiagnosisWorker final : public DiagnosisScheduler {
+ public:
+  DiagnosisWorker(std::filesystem::path db, DiagnosisWorkerOptions options, DiagnoseFn fn);
+  ~DiagnosisWorker() override;  ///< shutdown() with an unlimited grace
+  DiagnosisWorker(const DiagnosisWorker&) = delete;
+  DiagnosisWorker& operator=(const DiagnosisWorker&) = delete;
+
+  /// Starts the worker thread (once).
+  void start();
+  /// See the header comment. Idempotent. true: the thread has ended; false: it was detached.
+  bool shutdown(std::chrono::milliseconds grace = std::chrono::milliseconds::max());
+
+  void notify_diagnosis() override;
+  CancelOutcome cancel_diagnosis(studies::Store& store, const std::string& id) override;
+
+  /// The id of the diagnosis being computed now, if any.
+  std::optional<std::string> running() const;
+  /// Diagnoses finished by this worker (any outcome) since start.
+  std::size_t finished() const noexcept;
+
+  struct Shared;
+
+ private:
+  std::shared_ptr<Shared> shared_;
+  std::thread thread_;
+};
+
+}  // namespace stickslip::server

@@ -1,0 +1,187 @@
+// Diagnoses end to end with real processes: stickslipd on an ephemeral port; a synthetic
+// dataset on disk submitted by `stickslip diagnose --server --wait --out`, whose diagnosis.json
+// equals the server's stored result; a bad CSV sent with curl is a 422 naming /files/<name> and
+// the line; SIGTERM during a diagnosis exits 0 and leaves it queued; the next start runs it.
+#include <gtest/gtest.h>
+#include <signal.h>
+
+#include <chrono>
+#include <fstream>
+#include <thread>
+
+#include "process.h"
+#include "stickslip/studies/store.h"
+#include "stickslip/studies/synth.h"
+#include "test_support.h"
+
+namespace stickslip::server {
+namespace {
+
+namespace fs = std::filesystem;
+using namespace std::chrono_literals;
+using nlohmann::json;
+using testing::CommandResult;
+using testing::Process;
+using testing::run_command;
+using testing::slurp;
+using testing::TempDir;
+
+const std::string kServerBin = std::string(STICKSLIP_BINARY_DIR) + "/server/stickslipd";
+const std::string kClientBin = std::string(STICKSLIP_BINARY_DIR) + "/client/stickslip";
+
+/// stickslipd on an ephemeral port over dir/e2e.db.
+class Daemon {
+ public:
+  explicit Daemon(const fs::path& dir) {
+    const fs::path port_file = dir / "port";
+    fs::remove(port_file);
+    static int n = 0;
+    proc_ = std::make_unique<Process>(
+        std::vector<std::string>{kServerBin, "--db", (dir / "e2e.db").string(), "--port", "0",
+                                 "--port-file", port_file.string(), "--diagnosis-threads", "2",
+                                 "--diagnosis-grace", "0"},
+        (dir / ("diag-daemon" + std::to_string(n++))).string());
+    for (int i = 0; i < 1000 && !fs::exists(port_file); ++i) {
+      if (proc_->wait(0ms)) break;
+      std::this_thread::sleep_for(10ms);
+    }
+    if (!fs::exists(port_file)) throw std::runtime_error("stickslipd did not start: " + proc_->err());
+    url_ = "http://127.0.0.1:" + std::to_string(std::stoi(slurp(port_file)));
+  }
+  const std::string& url() const { return url_; }
+  Process& process() { return *proc_; }
+
+ private:
+  std::unique_ptr<Process> proc_;
+  std::string url_;
+};
+
+/// curl: status code and body.
+std::pair<int, std::string> curl(const fs::path& dir, const std::vector<std::string>& args) {
+  const fs::path body = dir / "curl.body";
+  std::vector<std::string> argv = {"curl", "-sS", "-o", body.string(), "-w", "%{http_code}"};
+  argv.insert(argv.end(), args.begin(), args.end());
+  const CommandResult r = run_command(argv, dir);
+  EXPECT_EQ(r.code, 0) << r.err;
+  return {std::atoi(r.out.c_str()), slurp(body)};
+}
+
+json get_diagnosis(const fs::path& dir, const std::string& url, const std::string& id) {
+  const auto [status, body] = curl(dir, {url + "/v1/diagnoses/" + id});
+  EXPECT_EQ(status, 200) << body;
+  return json::parse(body);
+}
+
+class DiagnosesEndToEnd : public ::testing::Test {
+ protected:
+  /// A short synthetic dataset on disk (2 LuGre runs of 6 s, vibration from 3 s, 500 Hz).
+  fs::path write_dataset() {
+    studies::SynthOptions o;
+    o.model = SimConfig::seed(ModelKind::kLuGre, 0.0);
+    studies::MeasuredConditions c;
+    c.t_on = 3.0;
+    c.duration = 6.0;
+    o.runs = {c, c};
+    o.runs[1].va = 4e-3;
+    o.rate = 500.0;
+    o.seed = 3;
+    o.rtol = 1e-7;
+    return studies::write_dataset(studies::synthesize(o), dir_ / "data");
+  }
+  std::vector<std::string> small_options() {
+    return {"--models", "lugre", "--candidates", "viscous", "--max-evals-base", "12",
+            "--max-evals-candidate", "10"};
+  }
+  TempDir dir_;
+};
+
+TEST_F(DiagnosesEndToEnd, ClientSubmitsWaitsAndWritesTheStoredResultAndCurlGetsProblems) {
+  const fs::path manifest = write_dataset();
+  Daemon d(dir_.path());
+  std::vector<std::string> argv = {kClientBin, "diagnose", manifest.string(), "--server", d.url(),
+                                   "--wait", "--json", "--out", (dir_ / "out").string()};
+  for (const auto& a : small_options()) argv.push_back(a);
+  const CommandResult r = run_command(argv, dir_.path(), {}, 600s);
+  ASSERT_EQ(r.code, 0) << r.err << r.out.substr(0, 500);
+  const json resource = json::parse(r.out);
+  EXPECT_EQ(resource["state"], "succeeded");
+  const std::string id = resource["id"];
+  // diagnosis.json written by the client = the result the server stored.
+  const json written = json::parse(slurp(dir_ / "out" / "diagnosis.json"));
+  EXPECT_EQ(written, resource["result"]);
+  {
+    auto store = studies::Store::open(dir_ / "e2e.db", studies::Store::Mode::kReadOnly);
+    EXPECT_EQ(json::parse(*store.get_diagnosis(id)->result_json), written);
+  }
+  // The status command reads it back.
+  const CommandResult s =
+      run_command({kClientBin, "diagnosis", id, "--server", d.url()}, dir_.path());
+  EXPECT_EQ(s.code, 0) << s.err;
+  EXPECT_NE(s.out.find("succeeded"), std::string::npos) << s.out;
+  EXPECT_NE(s.out.find("cause " + written["cause"].get<std::string>()), std::string::npos) << s.out;
+
+  // curl with a broken CSV: 422 naming the file's pointer and the line; the server goes on.
+  const json m = json::parse(slurp(manifest));
+  const std::string f0 = m["runs"][0]["file"], f1 = m["runs"][1]["file"];
+  std::string csv = slurp(dir_ / "data" / f0);
+  const auto third_line = csv.find('\n', csv.find('\n') + 1) + 1;
+  csv.replace(third_line, 1, "x");
+  const json bad = {{"manifest", m},
+                    {"files", {{f0, csv}, {f1, slurp(dir_ / "data" / f1)}}}};
+  std::ofstream(dir_ / "bad.json") << bad.dump();
+  const auto [status, body] =
+      curl(dir_.path(), {"-X", "POST", "-H", "Content-Type: application/json", "--data-binary",
+                         "@" + (dir_ / "bad.json").string(), d.url() + "/v1/diagnoses"});
+  EXPECT_EQ(status, 422) << body;
+  const json p = json::parse(body);
+  EXPECT_EQ(p["errors"][0]["pointer"], "/files/" + f0) << body;
+  EXPECT_NE(p["errors"][0]["detail"].get<std::string>().find(f0 + ":3:"), std::string::npos)
+      << body;
+  const auto [mstatus, metrics] = curl(dir_.path(), {d.url() + "/metrics"});
+  EXPECT_EQ(mstatus, 200);
+  EXPECT_NE(metrics.find("stickslip_diagnoses{state=\"succeeded\"} 1"), std::string::npos);
+
+  d.process().signal(SIGTERM);
+  EXPECT_EQ(d.process().wait(60s), 0) << d.process().err();
+}
+
+TEST_F(DiagnosesEndToEnd, SigtermDuringADiagnosisExitsZeroAndTheNextStartRunsIt) {
+  const fs::path manifest = write_dataset();
+  std::string id;
+  {
+    Daemon d(dir_.path());
+    std::vector<std::string> argv = {kClientBin, "diagnose", manifest.string(), "--server",
+                                     d.url()};
+    for (const auto& a : small_options()) argv.push_back(a);
+    const CommandResult r = run_command(argv, dir_.path());
+    ASSERT_EQ(r.code, 0) << r.err;
+    id = r.out.substr(0, r.out.find('\n'));
+    ASSERT_TRUE(id.starts_with("dg-")) << r.out;
+    json s;
+    for (int i = 0; i < 2000; ++i) {
+      s = get_diagnosis(dir_.path(), d.url(), id);
+      if (s["state"] != "queued") break;
+      std::this_thread::sleep_for(10ms);
+    }
+    ASSERT_EQ(s["state"], "running") << "finished before SIGTERM: " << s.dump().substr(0, 200);
+    d.process().signal(SIGTERM);
+    EXPECT_EQ(d.process().wait(30s), 0) << d.process().err();
+  }
+  {
+    auto store = studies::Store::open(dir_ / "e2e.db", studies::Store::Mode::kReadOnly);
+    EXPECT_EQ(store.get_diagnosis(id)->state, studies::StudyState::kQueued);
+  }
+  Daemon d(dir_.path());
+  const CommandResult w =
+      run_command({kClientBin, "diagnosis", id, "--server", d.url(), "--wait", "--json"},
+                  dir_.path(), {}, 600s);
+  ASSERT_EQ(w.code, 0) << w.err;
+  const json done = json::parse(w.out);
+  EXPECT_EQ(done["state"], "succeeded");
+  EXPECT_TRUE(done["result"].is_object());
+  d.process().signal(SIGTERM);
+  EXPECT_EQ(d.process().wait(60s), 0);
+}
+
+}  // namespace
+}  // namespace stickslip::server
