@@ -70,6 +70,10 @@ int main(int argc, char** argv) {
                  "nice increment (0-19) of the HTTP I/O and handler threads over the process's "
                  "nice, so that a flood of requests cannot take the cores from a study")
       ->capture_default_str();
+  app.add_option("--io-slice-us", net.io_slice_us,
+                 "scheduler slice of the HTTP threads [us] (Linux >= 6.12): shorter = lower "
+                 "latency at the same share of the CPU; 0 = the kernel's default")
+      ->capture_default_str();
   app.add_option("--max-runs", api.limits.max_runs, "largest number of runs of one study")
       ->capture_default_str();
   app.add_option("--max-body", api.max_body_bytes, "largest request body [bytes]")

@@ -33,6 +33,8 @@ bool ServerOptions::IsValid(std::string* why) const {
     return fail("handler_threads: must be >= 0, got " + std::to_string(handler_threads));
   if (io_nice < 0 || io_nice > 19)
     return fail("io_nice: must be in [0, 19], got " + std::to_string(io_nice));
+  if (io_slice_us < 0 || io_slice_us > 100000)
+    return fail("io_slice_us: must be in [0, 100000], got " + std::to_string(io_slice_us));
   if (max_connections < 1) return fail("max_connections: must be >= 1");
   if (max_header_bytes < 1024) return fail("max_header_bytes: must be >= 1024");
   if (idle_timeout.count() <= 0 || read_timeout.count() <= 0 || write_timeout.count() <= 0)
@@ -73,6 +75,8 @@ struct HttpServer::Impl {
       std::string why;
       if (!lower_thread_priority(options.io_nice, &why))
         spdlog::warn("HTTP thread: cannot lower its priority: {}", why);
+      if (!set_thread_slice(options.io_slice_us, &why))
+        spdlog::debug("HTTP thread: no custom scheduler slice: {}", why);
       ctx.run();
     });
   }

@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cstdint>
 #include <cerrno>
 #include <cstring>
 
@@ -35,6 +36,33 @@ bool lower_thread_priority(int increment, std::string* why) {
   if (::setpriority(PRIO_PROCESS, tid, target) != 0) {
     if (why != nullptr)
       *why = "setpriority(" + std::to_string(target) + "): " + std::strerror(errno);
+    return false;
+  }
+  return true;
+}
+
+bool set_thread_slice(int slice_us, std::string* why) {
+  if (slice_us == 0) return true;
+  if (slice_us < 0) {
+    if (why != nullptr) *why = "slice must be >= 0 us, got " + std::to_string(slice_us);
+    return false;
+  }
+  // struct sched_attr of linux/sched/types.h (SCHED_ATTR_SIZE_VER1); glibc 2.36 has no wrapper.
+  struct {
+    std::uint32_t size, sched_policy;
+    std::uint64_t sched_flags;
+    std::int32_t sched_nice;
+    std::uint32_t sched_priority;
+    std::uint64_t sched_runtime, sched_deadline, sched_period;
+    std::uint32_t sched_util_min, sched_util_max;
+  } attr{};
+  attr.size = sizeof attr;
+  attr.sched_policy = 0;  // SCHED_OTHER
+  attr.sched_nice = thread_nice();
+  attr.sched_runtime = static_cast<std::uint64_t>(slice_us) * 1000;  // [ns]
+  if (::syscall(SYS_sched_setattr, this_thread_id(), &attr, 0u) != 0) {
+    if (why != nullptr) *why = std::string("sched_setattr(slice ") + std::to_string(slice_us) +
+                               " us): " + std::strerror(errno);
     return false;
   }
   return true;

@@ -177,6 +177,13 @@ TEST(ServerOptions, InvalidOptionsNameTheField) {
   o = ServerOptions{};
   o.io_nice = 19;
   EXPECT_TRUE(o.IsValid(&why)) << why;
+  for (const int bad : {-5, 100001}) {
+    o = ServerOptions{};
+    o.io_slice_us = bad;
+    EXPECT_FALSE(o.IsValid(&why)) << bad;
+    EXPECT_NE(why.find("io_slice_us"), std::string::npos) << why;
+    EXPECT_NE(why.find("got " + std::to_string(bad)), std::string::npos) << why;
+  }
 }
 
 /// Nice values of this process's threads (/proc/self/task/TID/stat, field 19).
@@ -212,6 +219,38 @@ TEST(ThreadPriority, LowersTheCallingThreadOnlyAndNamesABadIncrement) {
   EXPECT_NE(why.find("25"), std::string::npos) << why;
   EXPECT_TRUE(lower_thread_priority(0, &why));
   EXPECT_EQ(thread_nice(), process_nice);
+}
+
+/// se.slice [ns] of the calling thread from /proc/thread-self/sched; -1 when not shown.
+long long own_slice_ns() {
+  std::ifstream in("/proc/thread-self/sched");
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.rfind("se.slice", 0) == 0) return std::stoll(line.substr(line.find(':') + 1));
+  }
+  return -1;
+}
+
+TEST(ThreadPriority, SliceIsSetForTheCallingThreadKeepingItsNice) {
+  std::string why;
+  EXPECT_FALSE(set_thread_slice(-1, &why));
+  EXPECT_NE(why.find("-1"), std::string::npos) << why;
+  EXPECT_TRUE(set_thread_slice(0, &why));  // nothing to do
+  bool ok = false;
+  long long slice = -1;
+  int nice_before = 0, nice_after = 0;
+  std::thread([&] {
+    lower_thread_priority(2, &why);
+    nice_before = thread_nice();
+    ok = set_thread_slice(300, &why);
+    nice_after = thread_nice();
+    slice = own_slice_ns();
+  }).join();
+  if (!ok) GTEST_SKIP() << "the kernel has no custom slices: " << why;
+  EXPECT_EQ(nice_after, nice_before);
+  if (slice >= 0) {
+    EXPECT_EQ(slice, 300000);
+  }
 }
 
 TEST_F(TransportTest, HttpThreadsRunAtTheIoNiceIncrement) {

@@ -47,7 +47,7 @@ struct WorkerOptions {
   /// threads and so of the OpenMP threads they start (new threads inherit it). 0: unchanged.
   /// Compare ServerOptions::io_nice: whichever of the two is lower gets the CPU first when both
   /// want it (docs/server.md, Load).
-  int nice = 10;
+  int nice = 0;
   studies::WriterOptions writer;
 
   bool IsValid(std::string* why) const;
