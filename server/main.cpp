@@ -67,7 +67,15 @@ int main(int argc, char** argv) {
   app.add_option("--threads", work.threads, "OpenMP threads per study (0 = all cores)")
       ->capture_default_str();
   app.add_option("--worker-nice", work.nice,
-                 "nice value of the study threads, so HTTP threads preempt them (0 = none)")
+                 "nice increment (0-19) of the study threads over the process's nice")
+      ->capture_default_str();
+  app.add_option("--io-nice", net.io_nice,
+                 "nice increment (0-19) of the HTTP I/O and handler threads over the process's "
+                 "nice, so that a flood of requests cannot take the cores from a study")
+      ->capture_default_str();
+  app.add_option("--io-slice-us", net.io_slice_us,
+                 "scheduler slice of the HTTP threads [us] (Linux >= 6.12): shorter = lower "
+                 "latency at the same share of the CPU; 0 = the kernel's default")
       ->capture_default_str();
   app.add_option("--max-runs", api.limits.max_runs, "largest number of runs of one study")
       ->capture_default_str();
@@ -131,9 +139,9 @@ int main(int argc, char** argv) {
     server::Worker worker(api.db, work, &studies::run_study);
     server::DiagnosisWorker diagnoses(api.db, diag, &server::run_diagnosis);
     server::Api handlers(api, &worker, &diagnoses);
-    server::HttpServer http(net, [&handlers](const server::Request& r) {
-      return handlers.handle(r);
-    });
+    server::HttpServer http(
+        net, [&handlers](const server::Request& r) { return handlers.handle(r); },
+        [&handlers](const server::Request& r) { return handlers.handle_cached(r); });
     const unsigned short port = http.port();
     if (!port_file.empty()) write_atomically(port_file, std::to_string(port) + "\n");
     std::printf("stickslipd listening on http://%s:%u (store %s)\n", net.bind.c_str(), port,

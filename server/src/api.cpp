@@ -2,6 +2,8 @@
 #include "stickslip/server/api.h"
 
 #include <charconv>
+#include <cstdint>
+#include <cstdio>
 
 #include "api_util.h"
 #include "stickslip/studies/diagnosis_request.h"
@@ -98,7 +100,51 @@ Response idempotency_conflict(const std::string& key, const std::string& id) {
                  "/v1/studies");
 }
 
+/// A strong entity tag of a body: its 64-bit FNV-1a hash and its length, quoted. Two bodies with
+/// the same tag are, in practice, the same bytes; the tag of an unchanged study is the same in
+/// every process (a few lines here because the standard hashes promise no stable value).
+std::string strong_etag(std::string_view body) {
+  std::uint64_t h = 14695981039346656037ull;
+  for (const char c : body) {
+    h ^= static_cast<unsigned char>(c);
+    h *= 1099511628211ull;
+  }
+  char buf[48];
+  std::snprintf(buf, sizeof buf, "\"%016llx-%zx\"", static_cast<unsigned long long>(h),
+                body.size());
+  return buf;
+}
+
+/// Whether an If-None-Match value lists etag (RFC 9110 13.1.2: weak comparison, so W/"x"
+/// matches "x"; "*" matches any current representation).
+bool none_match_lists(std::string_view value, std::string_view etag) {
+  while (!value.empty()) {
+    const auto comma = value.find(',');
+    std::string_view tag = value.substr(0, comma);
+    value = comma == std::string_view::npos ? std::string_view{} : value.substr(comma + 1);
+    while (!tag.empty() && (tag.front() == ' ' || tag.front() == '\t')) tag.remove_prefix(1);
+    while (!tag.empty() && (tag.back() == ' ' || tag.back() == '\t')) tag.remove_suffix(1);
+    if (tag == "*") return true;
+    if (tag.starts_with("W/")) tag.remove_prefix(2);
+    if (tag == etag) return true;
+  }
+  return false;
+}
+
 }  // namespace
+
+/// full itself, or 304 Not Modified (ETag and Cache-Control, no body) when the request's
+/// If-None-Match lists full's ETag.
+Response conditional_response(const Request& r, const Response& full) {
+  const auto etag = full.header("ETag");
+  const auto inm = r.header("If-None-Match");
+  if (!etag || !inm || !none_match_lists(*inm, *etag)) return full;
+  Response nm;
+  nm.status = 304;
+  nm.set_header("ETag", *etag);
+  if (const auto cc = full.header("Cache-Control")) nm.set_header("Cache-Control", *cc);
+  return nm;
+}
 
 Api::Api(ApiOptions options, Scheduler* scheduler, DiagnosisScheduler* diagnoses)
     : options_(std::move(options)),
@@ -333,26 +379,48 @@ Response Api::list_studies(const Request& r) const {
   }
 }
 
+std::optional<Response> Api::cached_study(const Request& r, const std::string& id) const {
+  if (options_.study_cache_ttl.count() <= 0) return std::nullopt;
+  const auto now = std::chrono::steady_clock::now();
+  std::lock_guard lock(cache_mu_);
+  const auto it = study_cache_.find(id);
+  if (it == study_cache_.end() || now - it->second.at >= options_.study_cache_ttl)
+    return std::nullopt;
+  return conditional_response(r, it->second.response);
+}
+
+std::optional<Response> Api::handle_cached(const Request& request) const {
+  // Only GET /v1/studies/{id} (exactly; not /runs, /map, :cancel), as the router would match it.
+  constexpr std::string_view kPrefix = "/v1/studies/";
+  if (request.method != "GET" || options_.study_cache_ttl.count() <= 0) return std::nullopt;
+  const std::string path = request.path();
+  if (!path.starts_with(kPrefix)) return std::nullopt;
+  const std::string id = path.substr(kPrefix.size());
+  if (!is_valid_id(id)) return std::nullopt;  // ids have no '/' or ':'; the router answers
+  auto resp = cached_study(request, id);
+  if (resp) responses_[static_cast<std::size_t>(resp->status / 100)].fetch_add(1);
+  return resp;
+}
+
 Response Api::get_study(const Request& r, const std::string& id) const {
   if (!is_valid_id(id)) return unknown_study(id, r.path());
-  const auto ttl = options_.study_cache_ttl;
+  if (auto hit = cached_study(r, id)) return std::move(*hit);
+  // Taken before the store is read, so a cached entry is never older than the TTL says.
   const auto now = std::chrono::steady_clock::now();
-  if (ttl.count() > 0) {
-    std::lock_guard lock(cache_mu_);
-    if (const auto it = study_cache_.find(id); it != study_cache_.end() && now - it->second.at < ttl)
-      return it->second.response;
-  }
   try {
     auto store = pool_.acquire();
     const auto rec = store->get_study(id);
     if (!rec) return unknown_study(id, r.path());
     Response resp = json_response(200, study_json(*rec, store->count_runs(id), true));
-    if (ttl.count() > 0) {
+    resp.set_header("ETag", strong_etag(resp.body));
+    // May be stored, but must be revalidated (If-None-Match) before each use.
+    resp.set_header("Cache-Control", "no-cache");
+    if (options_.study_cache_ttl.count() > 0) {
       std::lock_guard lock(cache_mu_);
       if (study_cache_.size() >= 1024) study_cache_.clear();  // bounded; entries are cheap
       study_cache_[id] = {now, resp};
     }
-    return resp;
+    return conditional_response(r, resp);
   } catch (const StoreError& e) {
     return store_failure(e, r.path());
   }

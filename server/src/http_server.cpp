@@ -1,4 +1,5 @@
 #include "stickslip/server/http_server.h"
+#include "stickslip/server/priority.h"
 
 #include <algorithm>
 
@@ -8,6 +9,7 @@
 #include <boost/beast/http.hpp>
 #include <boost/beast/version.hpp>
 #include <optional>
+#include <pthread.h>
 #include <thread>
 #include <vector>
 
@@ -31,6 +33,10 @@ bool ServerOptions::IsValid(std::string* why) const {
   if (io_threads < 1) return fail("io_threads: must be >= 1, got " + std::to_string(io_threads));
   if (handler_threads < 0)
     return fail("handler_threads: must be >= 0, got " + std::to_string(handler_threads));
+  if (io_nice < 0 || io_nice > 19)
+    return fail("io_nice: must be in [0, 19], got " + std::to_string(io_nice));
+  if (io_slice_us < 0 || io_slice_us > 100000)
+    return fail("io_slice_us: must be in [0, 100000], got " + std::to_string(io_slice_us));
   if (max_connections < 1) return fail("max_connections: must be >= 1");
   if (max_header_bytes < 1024) return fail("max_header_bytes: must be >= 1024");
   if (idle_timeout.count() <= 0 || read_timeout.count() <= 0 || write_timeout.count() <= 0)
@@ -44,19 +50,38 @@ struct HttpServer::Impl {
   std::atomic<std::size_t> connections{0};
   ServerOptions options;
   HttpHandler handler;
+  InlineHandler inline_handler;
   asio::io_context ioc;
   std::optional<asio::executor_work_guard<asio::io_context::executor_type>> work;
   tcp::acceptor acceptor;
-  asio::thread_pool handlers;
+  // The handler pool: an io_context of its own run by handler_threads threads (not an
+  // asio::thread_pool, whose threads cannot be given a priority when they start).
+  asio::io_context handlers;
+  std::optional<asio::executor_work_guard<asio::io_context::executor_type>> handlers_work;
   std::vector<std::thread> io_threads;
   bool started = false, stopped = false;
 
-  Impl(ServerOptions o, HttpHandler h)
+  Impl(ServerOptions o, HttpHandler h, InlineHandler fast)
       : options(std::move(o)),
         handler(std::move(h)),
+        inline_handler(std::move(fast)),
         ioc(options.io_threads),
         acceptor(ioc),
-        handlers(static_cast<std::size_t>(std::max(options.handler_threads, 1))) {}
+        handlers(std::max(options.handler_threads, 1)) {}
+
+  /// Runs ctx on a new thread at the I/O priority, named name (in ps/top and /proc/PID/task, so
+  /// bench/server_load.sh can add up the CPU of the HTTP threads).
+  void spawn(asio::io_context& ctx, const char* name) {
+    io_threads.emplace_back([this, &ctx, name] {
+      ::pthread_setname_np(::pthread_self(), name);
+      std::string why;
+      if (!lower_thread_priority(options.io_nice, &why))
+        spdlog::warn("HTTP thread: cannot lower its priority: {}", why);
+      if (!set_thread_slice(options.io_slice_us, &why))
+        spdlog::debug("HTTP thread: no custom scheduler slice: {}", why);
+      ctx.run();
+    });
+  }
 
   void accept();
 };
@@ -80,7 +105,9 @@ http::response<http::string_body> to_beast(const Response& resp, unsigned versio
   for (const auto& h : resp.headers) res.set(h.name, h.value);
   res.body() = resp.body;
   res.keep_alive(keep_alive);
-  res.prepare_payload();
+  // A 304 has no body and must not claim Content-Length: 0 (RFC 9110 8.6: it would have to be
+  // the length of the 200's body), so only other responses get their payload headers.
+  if (resp.status != 304) res.prepare_payload();
   return res;
 }
 
@@ -194,11 +221,14 @@ class Session : public std::enable_shared_from_this<Session> {
     const unsigned version = req.version();
     const bool keep_alive = req.keep_alive();
     stream_.expires_never();  // the handler pool may take a moment; the write sets its own
+    Request request = to_request(req);
     if (server_.options.handler_threads == 0) {  // inline on this I/O thread (no hand-off)
-      const Response resp = server_.handler(to_request(req));
-      return send(resp, version, keep_alive);
+      return send(server_.handler(request), version, keep_alive);
     }
-    asio::post(server_.handlers, [self = shared_from_this(), request = to_request(req), version,
+    if (server_.inline_handler) {
+      if (auto resp = server_.inline_handler(request)) return send(*resp, version, keep_alive);
+    }
+    asio::post(server_.handlers, [self = shared_from_this(), request = std::move(request), version,
                                   keep_alive]() mutable {
       Response resp = self->server_.handler(request);
       asio::post(self->stream_.get_executor(),
@@ -252,8 +282,9 @@ void HttpServer::Impl::accept() {
   });
 }
 
-HttpServer::HttpServer(ServerOptions options, HttpHandler handler)
-    : impl_(std::make_unique<Impl>(std::move(options), std::move(handler))) {
+HttpServer::HttpServer(ServerOptions options, HttpHandler handler, InlineHandler inline_handler)
+    : impl_(std::make_unique<Impl>(std::move(options), std::move(handler),
+                                   std::move(inline_handler))) {
   std::string why;
   if (!impl_->options.IsValid(&why)) throw std::invalid_argument("ServerOptions: " + why);
   const tcp::endpoint ep(asio::ip::make_address(impl_->options.bind), impl_->options.port);
@@ -281,9 +312,11 @@ void HttpServer::start() {
   if (impl_->started) return;
   impl_->started = true;
   impl_->work.emplace(impl_->ioc.get_executor());
+  impl_->handlers_work.emplace(impl_->handlers.get_executor());
   impl_->accept();
-  for (int i = 0; i < impl_->options.io_threads; ++i)
-    impl_->io_threads.emplace_back([this] { impl_->ioc.run(); });
+  for (int i = 0; i < impl_->options.io_threads; ++i) impl_->spawn(impl_->ioc, "http-io");
+  for (int i = 0; i < impl_->options.handler_threads; ++i)
+    impl_->spawn(impl_->handlers, "http-handler");
 }
 
 void HttpServer::stop_accepting() {
@@ -301,11 +334,11 @@ void HttpServer::stop() {
   if (impl_->stopped) return;
   impl_->stopped = true;
   impl_->work.reset();
+  impl_->handlers_work.reset();
   impl_->ioc.stop();
+  impl_->handlers.stop();
   for (auto& t : impl_->io_threads) t.join();
   impl_->io_threads.clear();
-  impl_->handlers.stop();
-  impl_->handlers.join();
 }
 
 std::size_t HttpServer::connections() const noexcept { return impl_->connections.load(); }

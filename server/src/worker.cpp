@@ -1,12 +1,8 @@
 #include "stickslip/server/worker.h"
 
 #include <spdlog/spdlog.h>
-#include <sys/resource.h>
-#include <sys/syscall.h>
-#include <unistd.h>
 
-#include <cerrno>
-#include <cstring>
+#include "stickslip/server/priority.h"
 
 namespace stickslip::server {
 
@@ -97,13 +93,9 @@ std::string Worker::claim_next(studies::Store& store, std::shared_ptr<Claim>* cl
 }
 
 void Worker::loop() {
-  if (options_.nice > 0) {
-    // Linux: nice applies to the calling thread only (its tid), and threads it creates (the
-    // libgomp team of run_study) inherit it.
-    const auto tid = static_cast<id_t>(::syscall(SYS_gettid));
-    if (::setpriority(PRIO_PROCESS, tid, options_.nice) != 0)
-      spdlog::warn("worker: cannot lower its priority: {}", std::strerror(errno));
-  }
+  // Threads it creates (the compute thread and libgomp team of run_study) inherit it.
+  if (std::string why; !lower_thread_priority(options_.nice, &why))
+    spdlog::warn("worker: cannot lower its priority: {}", why);
   std::unique_ptr<studies::Store> store;
   while (true) {
     std::string id;

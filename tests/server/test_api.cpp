@@ -416,6 +416,94 @@ TEST_F(ApiTest, StudyCacheIsShortLivedAndForgetsACancelledStudy) {
   EXPECT_EQ(body_json(api.handle(get("/v1/studies/" + id)))["state"], "cancelled");
 }
 
+TEST_F(ApiTest, StudyETagRevalidatesWith304AndChangesWithTheStudy) {
+  ApiOptions o = options();
+  o.study_cache_ttl = std::chrono::milliseconds(0);  // every GET reads the store
+  Api api(o);
+  const std::string id = body_json(api.handle(post_json("/v1/studies", tiny_study())))["id"];
+  const std::string target = "/v1/studies/" + id;
+  const Response first = api.handle(get(target));
+  ASSERT_EQ(first.status, 200);
+  const auto etag = first.header("ETag");
+  ASSERT_TRUE(etag.has_value());
+  EXPECT_EQ(etag->front(), '"');  // a strong tag
+  EXPECT_EQ(first.header("Cache-Control"), "no-cache");
+  // The same study gives the same bytes and the same tag.
+  const Response again = api.handle(get(target));
+  EXPECT_EQ(again.body, first.body);
+  EXPECT_EQ(again.header("ETag"), etag);
+  // If-None-Match with the current tag (alone, weak, or in a list; or *): 304, no body.
+  for (const std::string& inm : {*etag, "W/" + *etag, "\"other\", " + *etag, std::string("*")}) {
+    const Response nm = api.handle(get(target, {{"If-None-Match", inm}}));
+    EXPECT_EQ(nm.status, 304) << inm;
+    EXPECT_TRUE(nm.body.empty()) << inm;
+    EXPECT_EQ(nm.header("ETag"), etag) << inm;
+  }
+  EXPECT_EQ(api.handle(get(target, {{"If-None-Match", "\"other\""}})).status, 200);
+  EXPECT_EQ(api.responses(3), 4u);
+  // A changed study: the old tag no longer matches; a new body under a new tag.
+  {
+    auto writer = studies::RunWriter::open(dir_ / "api.db");
+    writer.add(make_run(id, 0, "dahl", 0));
+    writer.flush();
+  }
+  const Response changed = api.handle(get(target, {{"If-None-Match", *etag}}));
+  ASSERT_EQ(changed.status, 200);
+  EXPECT_EQ(body_json(changed)["progress"]["done"], 1);
+  EXPECT_NE(changed.body, first.body);
+  ASSERT_TRUE(changed.header("ETag").has_value());
+  EXPECT_NE(changed.header("ETag"), etag);
+  EXPECT_EQ(api.handle(get(target, {{"If-None-Match", *changed.header("ETag")}})).status, 304);
+}
+
+TEST_F(ApiTest, HandleCachedAnswersOnlyFreshStudyGetsAndMatchesHandle) {
+  ApiOptions o = options();
+  o.study_cache_ttl = std::chrono::milliseconds(300);
+  Api api(o);
+  const std::string id = body_json(api.handle(post_json("/v1/studies", tiny_study())))["id"];
+  const std::string target = "/v1/studies/" + id;
+  EXPECT_FALSE(api.handle_cached(get(target)).has_value());  // nothing cached yet
+  const Response full = api.handle(get(target));
+  ASSERT_EQ(full.status, 200);
+  const std::uint64_t ok_before = api.responses(2);
+  const auto hit = api.handle_cached(get(target));
+  ASSERT_TRUE(hit.has_value());
+  EXPECT_EQ(hit->status, 200);
+  EXPECT_EQ(hit->body, full.body);
+  EXPECT_EQ(hit->header("ETag"), full.header("ETag"));
+  EXPECT_EQ(hit->header("Content-Type"), "application/json");
+  EXPECT_EQ(api.responses(2), ok_before + 1);  // counted like handle()
+  const auto nm = api.handle_cached(get(target, {{"If-None-Match", *full.header("ETag")}}));
+  ASSERT_TRUE(nm.has_value());
+  EXPECT_EQ(nm->status, 304);
+  // Other routes, methods and ids are never answered from the cache.
+  for (const std::string& other : {target + "/runs", target + "/map", target + ":cancel",
+                                  std::string("/v1/studies/"), std::string("/v1/studies"),
+                                  target + "/", std::string("/v1/studies/nope")})
+    EXPECT_FALSE(api.handle_cached(get(other)).has_value()) << other;
+  EXPECT_FALSE(api.handle_cached(post_json(target, "{}")).has_value());
+  // A run committed now is visible once the TTL has passed: the cached answer is never older.
+  {
+    auto writer = studies::RunWriter::open(dir_ / "api.db");
+    writer.add(make_run(id, 0, "dahl", 0));
+    writer.flush();
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(350));
+  EXPECT_FALSE(api.handle_cached(get(target)).has_value());
+  EXPECT_EQ(body_json(api.handle(get(target)))["progress"]["done"], 1);
+  // A cancel forgets the entry at once.
+  ASSERT_TRUE(api.handle_cached(get(target)).has_value());
+  EXPECT_EQ(api.handle(post_json(target + ":cancel", "")).status, 200);
+  EXPECT_FALSE(api.handle_cached(get(target)).has_value());
+  EXPECT_EQ(body_json(api.handle(get(target)))["state"], "cancelled");
+  // With the cache off nothing is answered inline.
+  ApiOptions off = options();
+  off.study_cache_ttl = std::chrono::milliseconds(0);
+  Api uncached(off);
+  EXPECT_EQ(uncached.handle(get(target)).status, 200);
+  EXPECT_FALSE(uncached.handle_cached(get(target)).has_value());
+}
+
 TEST_F(ApiTest, HealthAndMetricsReflectTheStore) {
   Api api(options());
   EXPECT_EQ(api.handle(get("/healthz")).status, 200);

@@ -318,6 +318,18 @@ TEST_F(EndToEnd, TokenIsRequiredForChangesAndClientTakesItFromTheEnvironment) {
   EXPECT_EQ(d.process().wait(30s), 0);
 }
 
+TEST_F(EndToEnd, BadPriorityOptionsExit2NamingTheValue) {
+  for (const std::vector<std::string>& bad :
+       {std::vector<std::string>{"--io-nice", "25"}, std::vector<std::string>{"--worker-nice", "-3"}}) {
+    std::vector<std::string> argv = {kServerBin, "--db", (dir_ / "bad.db").string(), "--port", "0"};
+    argv.insert(argv.end(), bad.begin(), bad.end());
+    const CommandResult r = run_command(argv, dir_.path());
+    EXPECT_EQ(r.code, 2) << bad[0] << ": " << r.err;
+    EXPECT_NE(r.err.find("got " + bad[1]), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find(bad[0] == "--io-nice" ? "io_nice" : "nice"), std::string::npos) << r.err;
+  }
+}
+
 TEST_F(EndToEnd, ClientExitCodes) {
   // 3: nothing listens there (port 1 is privileged and unused here).
   const CommandResult down =

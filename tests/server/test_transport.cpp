@@ -6,11 +6,17 @@
 #include <gtest/gtest.h>
 
 #include <boost/asio.hpp>
+#include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
 #include <thread>
 
 #include "stickslip/server/api.h"
+#include "stickslip/server/priority.h"
 #include "test_support.h"
 
 namespace stickslip::server {
@@ -226,6 +232,146 @@ TEST(ServerOptions, InvalidOptionsNameTheField) {
   std::string why;
   EXPECT_FALSE(o.IsValid(&why));
   EXPECT_NE(why.find("bind"), std::string::npos);
+  for (const int bad : {-1, 20, 25}) {
+    o = ServerOptions{};
+    o.io_nice = bad;
+    EXPECT_FALSE(o.IsValid(&why)) << bad;
+    EXPECT_NE(why.find("io_nice"), std::string::npos) << why;
+    EXPECT_NE(why.find("got " + std::to_string(bad)), std::string::npos) << why;
+  }
+  o = ServerOptions{};
+  o.io_nice = 19;
+  EXPECT_TRUE(o.IsValid(&why)) << why;
+  for (const int bad : {-5, 100001}) {
+    o = ServerOptions{};
+    o.io_slice_us = bad;
+    EXPECT_FALSE(o.IsValid(&why)) << bad;
+    EXPECT_NE(why.find("io_slice_us"), std::string::npos) << why;
+    EXPECT_NE(why.find("got " + std::to_string(bad)), std::string::npos) << why;
+  }
+}
+
+/// Nice values of this process's threads (/proc/self/task/TID/stat, field 19).
+std::vector<int> thread_nice_values() {
+  std::vector<int> out;
+  for (const auto& task : std::filesystem::directory_iterator("/proc/self/task")) {
+    std::ifstream in(task.path() / "stat");
+    std::string stat((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    const auto close = stat.rfind(')');  // the comm field may hold spaces
+    if (close == std::string::npos) continue;
+    std::istringstream fields(stat.substr(close + 2));  // field 3 onwards
+    std::string f;
+    for (int i = 3; i <= 19 && (fields >> f); ++i)
+      if (i == 19) out.push_back(std::stoi(f));
+  }
+  return out;
+}
+
+TEST(ThreadPriority, LowersTheCallingThreadOnlyAndNamesABadIncrement) {
+  const int process_nice = thread_nice();
+  int seen = -100;
+  bool ok = false;
+  std::thread([&] {
+    std::string why;
+    ok = lower_thread_priority(3, &why);
+    seen = thread_nice();
+  }).join();
+  EXPECT_TRUE(ok);
+  EXPECT_EQ(seen, std::min(19, process_nice + 3));
+  EXPECT_EQ(thread_nice(), process_nice);  // this thread is unchanged
+  std::string why;
+  EXPECT_FALSE(lower_thread_priority(25, &why));
+  EXPECT_NE(why.find("25"), std::string::npos) << why;
+  EXPECT_TRUE(lower_thread_priority(0, &why));
+  EXPECT_EQ(thread_nice(), process_nice);
+}
+
+/// se.slice [ns] of the calling thread from /proc/thread-self/sched; -1 when not shown.
+long long own_slice_ns() {
+  std::ifstream in("/proc/thread-self/sched");
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.rfind("se.slice", 0) == 0) return std::stoll(line.substr(line.find(':') + 1));
+  }
+  return -1;
+}
+
+TEST(ThreadPriority, SliceIsSetForTheCallingThreadKeepingItsNice) {
+  std::string why;
+  EXPECT_FALSE(set_thread_slice(-1, &why));
+  EXPECT_NE(why.find("-1"), std::string::npos) << why;
+  EXPECT_TRUE(set_thread_slice(0, &why));  // nothing to do
+  bool ok = false;
+  long long slice = -1;
+  int nice_before = 0, nice_after = 0;
+  std::thread([&] {
+    lower_thread_priority(2, &why);
+    nice_before = thread_nice();
+    ok = set_thread_slice(300, &why);
+    nice_after = thread_nice();
+    slice = own_slice_ns();
+  }).join();
+  if (!ok) GTEST_SKIP() << "the kernel has no custom slices: " << why;
+  EXPECT_EQ(nice_after, nice_before);
+  if (slice >= 0) {
+    EXPECT_EQ(slice, 300000);
+  }
+}
+
+TEST_F(TransportTest, HttpThreadsRunAtTheIoNiceIncrement) {
+  const int base = thread_nice();
+  const auto count_at = [](int nice) {
+    const auto v = thread_nice_values();
+    return std::count(v.begin(), v.end(), nice);
+  };
+  const auto before = count_at(std::min(19, base + 7));
+  ServerOptions net;
+  net.io_threads = 1;
+  net.handler_threads = 2;
+  net.io_nice = 7;
+  start(net);
+  EXPECT_EQ(get_healthz().substr(0, 12), "HTTP/1.1 200");  // threads are up and serving
+  EXPECT_EQ(count_at(std::min(19, base + 7)) - before, 3);  // 1 I/O + 2 handler threads
+}
+
+TEST_F(TransportTest, InlineHandlerAnswersOnTheIoThreadAndPassesTheRestOn) {
+  ApiOptions o;
+  o.db = dir_ / "t.db";
+  api_ = std::make_unique<Api>(o);
+  ServerOptions net;
+  net.port = 0;
+  std::atomic<int> inline_calls{0};
+  server_ = std::make_unique<HttpServer>(
+      net, [this](const Request& r) { return api_->handle(r); },
+      [&inline_calls](const Request& r) -> std::optional<Response> {
+        ++inline_calls;
+        if (r.target == "/not-modified") {
+          Response nm;
+          nm.status = 304;
+          nm.set_header("ETag", "\"x\"");
+          return nm;
+        }
+        if (r.target != "/inline") return std::nullopt;
+        return text_response(200, "text/plain", "from the I/O thread");
+      });
+  server_->start();
+  RawClient c(server_->port());
+  c.send("GET /inline HTTP/1.1\r\nHost: x\r\n\r\n");
+  const std::string a = c.read_response();
+  EXPECT_EQ(a.substr(0, 15), "HTTP/1.1 200 OK") << a;
+  EXPECT_NE(a.find("from the I/O thread"), std::string::npos) << a;
+  c.send("GET /healthz HTTP/1.1\r\nHost: x\r\n\r\n");
+  const std::string b = c.read_response();
+  EXPECT_NE(b.find("{\"status\":\"ok\"}"), std::string::npos) << b;  // the pool's answer
+  // A 304 has no body and no Content-Length, and the connection stays usable after it.
+  c.send("GET /not-modified HTTP/1.1\r\nHost: x\r\n\r\n");
+  const std::string nm = c.read_response();
+  EXPECT_EQ(nm.substr(0, 12), "HTTP/1.1 304") << nm;
+  EXPECT_EQ(nm.find("Content-Length"), std::string::npos) << nm;
+  EXPECT_EQ(nm.substr(nm.size() - 4), "\r\n\r\n") << nm;
+  c.send("GET /inline HTTP/1.1\r\nHost: x\r\n\r\n");
+  EXPECT_EQ(c.read_response().substr(0, 15), "HTTP/1.1 200 OK");
+  EXPECT_EQ(inline_calls.load(), 4);
 }
 
 }  // namespace

@@ -26,6 +26,7 @@
 #include <unordered_map>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "stickslip/server/diagnosis_worker.h"
@@ -68,6 +69,12 @@ class Api {
 
   /// Routes and handles one request. Never throws.
   Response handle(const Request& request) const;
+  /// The answer to GET /v1/studies/{id} from the study cache, when a fresh entry exists (200, or
+  /// 304 for a matching If-None-Match), counted like handle(); nullopt otherwise (then call
+  /// handle()). Never reads the store and never blocks beyond a short mutex, so the HTTP layer
+  /// may call it on an I/O thread (HttpServer's inline handler) and skip the hand-off to the
+  /// handler pool. Never throws.
+  std::optional<Response> handle_cached(const Request& request) const;
   const Router& router() const noexcept { return router_; }
   const ApiOptions& options() const noexcept { return options_; }
 
@@ -109,7 +116,13 @@ class Api {
   mutable std::mutex cache_mu_;
   mutable std::unordered_map<std::string, CachedStudy> study_cache_;
   void forget_cached(const std::string& id) const;
+  /// The cached GET /v1/studies/{id} response, if younger than study_cache_ttl.
+  std::optional<Response> cached_study(const Request& r, const std::string& id) const;
 };
+
+/// full itself, or 304 Not Modified (its ETag and Cache-Control, no body) when the request's
+/// If-None-Match lists full's ETag (weak comparison, RFC 9110 13.1.2).
+Response conditional_response(const Request& r, const Response& full);
 
 /// The OpenAPI 3.1 document (schemas/openapi.json) embedded at build time.
 std::string_view openapi_text() noexcept;

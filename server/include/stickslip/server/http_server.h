@@ -5,6 +5,15 @@
 // parsed request is handed to a separate pool of handler_threads, which calls the pure handler
 // (store reads, validation) and posts the response back to the connection's strand, so a slow
 // handler never stalls other connections' I/O. Studies run in the Worker, on threads of its own.
+// An optional inline handler answers what it can without blocking (a cache hit) on the I/O
+// thread itself, which saves the two thread hand-offs of the pool for the most frequent request.
+//
+// Priority: the I/O and handler threads run at io_nice (added to the process's nice value), so
+// that a flood of requests (e.g. 50 clients polling back to back) cannot take the cores from a
+// study running at the process's priority: the scheduler gives a nice-10 thread about a tenth of
+// what a nice-0 thread gets while both want the CPU, and the whole CPU when the study is idle.
+// Each request costs microseconds, so latency stays within a scheduler period or two (see
+// docs/server.md, Load).
 //
 // Limits, per connection:
 //  - idle_timeout: how long a connection may sit without sending the first byte of a request;
@@ -22,6 +31,7 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "stickslip/server/http.h"
@@ -33,6 +43,14 @@ struct ServerOptions {
   unsigned short port = 8080;  ///< 0: an ephemeral port (see HttpServer::port())
   int io_threads = 1;
   int handler_threads = 2;
+  /// Nice increment (Linux, per thread, 0..19) of the I/O and handler threads over the
+  /// process's nice value; 0 = same priority as the rest of the process. The default 10 puts
+  /// the API below a study (WorkerOptions::nice 0): see the header comment.
+  int io_nice = 10;
+  /// Scheduler slice of the I/O and handler threads [us] (Linux >= 6.12; see
+  /// set_thread_slice): short slices let a low-priority thread run more often in smaller pieces,
+  /// which cuts its latency without raising its share. 0 = the kernel's default; 0..100000.
+  int io_slice_us = 100;
   std::size_t max_body_bytes = 1 << 20;
   std::map<std::string, std::size_t> path_body_limits;  ///< exact path (no query) -> bytes
   std::size_t max_header_bytes = 16 << 10;
@@ -45,12 +63,16 @@ struct ServerOptions {
 };
 
 using HttpHandler = std::function<Response(const Request&)>;
+/// Called on the I/O thread before a request goes to the handler pool: a response, or nullopt
+/// to hand the request to the pool. It must not block (no store, no file I/O) and never throw.
+using InlineHandler = std::function<std::optional<Response>(const Request&)>;
+
 
 class HttpServer {
  public:
   /// Binds and listens (throws std::runtime_error naming the address when it cannot), but
   /// serves nothing until start().
-  HttpServer(ServerOptions options, HttpHandler handler);
+  HttpServer(ServerOptions options, HttpHandler handler, InlineHandler inline_handler = {});
   ~HttpServer();  ///< stop()
   HttpServer(const HttpServer&) = delete;
   HttpServer& operator=(const HttpServer&) = delete;

@@ -43,10 +43,11 @@ struct WorkerOptions {
   int threads = 0;      ///< OpenMP threads per study; 0 = OpenMP's default
   studies::Limits limits;
   std::chrono::milliseconds poll{1000};  ///< how often the store is scanned without notify()
-  /// Nice value (Linux, per thread) of the worker threads and so of the OpenMP threads they
-  /// start (new threads inherit it): the HTTP threads, at the process's own priority, then
-  /// preempt a study that keeps every core busy, so the API stays responsive. 0: unchanged.
-  int nice = 10;
+  /// Nice increment (Linux, per thread, 0..19, added to the process's nice value) of the worker
+  /// threads and so of the OpenMP threads they start (new threads inherit it). 0: unchanged.
+  /// Compare ServerOptions::io_nice: whichever of the two is lower gets the CPU first when both
+  /// want it (docs/server.md, Load).
+  int nice = 0;
   studies::WriterOptions writer;
 
   bool IsValid(std::string* why) const;
