@@ -218,6 +218,7 @@ void adaptive(RunContext& ctx, const Sys& sys, const ErrorScale& es) {
           y = out.y;
           record(t_new, out.k_end);  // the old mode's forces at the switch (F_f jumps here)
           mode = sys.enter(mode, next, p, t_new, y);
+          out.y = y;  // keep the projection onto the new mode's set (on_enter)
           out.k_end = sys.eval(p, t_new, y, mode);
           ++ctx.result.switches;
           zero_switches = b < 1e-9 * hh ? zero_switches + 1 : 0;

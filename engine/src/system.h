@@ -339,14 +339,33 @@ std::string divergence_reason(const SimConfig& cfg, double t, const State& y, do
 /// 1e-15 s), the next mode's classification sent it back to the old mode, and the old mode's
 /// event was 0 again at once: a loop of zero-length switches (the rk4_event dt = 1e-7 Karnopp
 /// bug: 3.6e7 switches, a body creeping at v_r = DV for ever).
+///
+/// Safeguard: every fifth iteration the bracket must have shrunk to half its width five
+/// iterations before, otherwise that iteration bisects. Event functions are minima over several
+/// conditions (Karnopp's stick mode: min(F_S - F_d, DV - v_r, ...)), and a body creeping at
+/// v_r = DV - 1e-19 makes the minimum ~1e-19 and flat until F_d crosses F_S. Regula falsi then
+/// creeps from the flat end: Illinois needs ~50 halvings of f(b) before it moves, the 80
+/// iterations ran out with the bracket still [~0, h], and the switch was taken at the END of the
+/// step. With the adaptive integrator's 1e-4 s stick steps every Karnopp breakaway came up to
+/// 1e-4 s late (the ~1e-2 N RMS "adaptive vs rk4_event bias"; test
+/// EventLocation.AdaptiveKarnoppBreakawayOnTime).
 template <class Out, class Eval>
 double locate_switch(double f0, double h, double f_h, Out& out_h, Eval&& eval) {
   double a = 0.0, fa = std::fmax(f0, 0.0), b = h, fb = f_h;
   int side = 0;
   const double tol = std::fmax(1e-15, 1e-10 * h);
-  for (int it = 0; it < 80 && b - a > tol; ++it) {
+  double width_check = b - a;
+  for (int it = 0; it < 200 && b - a > tol; ++it) {
+    bool bisect = false;
+    if (it % 5 == 4) {
+      bisect = b - a > 0.5 * width_check;
+      width_check = b - a;
+    }
     double th = (fa - fb) != 0.0 ? b - fb * (b - a) / (fb - fa) : 0.5 * (a + b);
-    if (!(th > a && th < b)) th = 0.5 * (a + b);
+    if (bisect || !(th > a && th < b)) {
+      th = 0.5 * (a + b);
+      side = 0;  // no Illinois halving right after a bisection
+    }
     Out ot;
     const double ft = eval(th, ot);
     if (ft < 0.0) {
