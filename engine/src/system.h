@@ -197,12 +197,26 @@ struct KarnoppHybrid {
   /// Projects the state onto the entered mode's set: on an edge v_r = +-DV exactly, inside the
   /// band |v_r| <= DV. Without this, round-off drift of 1e-11 m/s past an edge makes the band's
   /// exit event fire at once, and the integrator ping-pongs between modes at zero step length.
-  void on_enter(Mode mode, const Point& p, State& y) const noexcept {
+  ///
+  /// A slip that ends in the band (from kSlipPos/kSlipNeg) ends exactly on its edge: the
+  /// located point is up to the locator's tolerance past the event v_r = +-DV, and the body
+  /// then creeps through the whole stick at that velocity. The creep velocity's shortfall eps
+  /// below DV delays the next breakaway by sqrt(2 m eps / (k_d v_d)) (the band must be crossed
+  /// by the saturated acceleration first): eps = 4e-14 m/s (a 1e-14 s tolerance at 4 m/s^2)
+  /// gave a 7e-8 s late slip and 1.5e-6 N of F_d offset per stick-slip cycle. The edge is
+  /// entered 1e-12 DV inside: exactly on it, the round-off of v_r = x' - u' (~1e-21 m/s) made
+  /// the band's exit event fire at once under vibration (4757 zero-length switch loops in 6 s
+  /// at 4 mm/s, each ending in a step taken without location: 0.03 N momentum imbalance).
+  static constexpr double kEdgeInside = 1.0 - 1e-12;
+  void on_enter(Mode mode, const Point& p, State& y, Mode from) const noexcept {
     double target = p.v_r;
     if (mode == Mode::kEdgePos) target = m.DV;
     else if (mode == Mode::kEdgeNeg) target = -m.DV;
-    else if (mode == Mode::kStick || mode == Mode::kSatPos || mode == Mode::kSatNeg)
+    else if (mode == Mode::kStick || mode == Mode::kSatPos || mode == Mode::kSatNeg) {
       target = std::fmin(std::fmax(p.v_r, -m.DV), m.DV);
+      if (from == Mode::kSlipPos) target = kEdgeInside * m.DV;
+      if (from == Mode::kSlipNeg) target = -kEdgeInside * m.DV;
+    }
     y.v += target - p.v_r;
   }
 };
@@ -253,7 +267,7 @@ struct ResetHybrid {
   }
   Mode settle(Mode /*from*/, Mode to, const Point&) const noexcept { return to; }
   /// The strain sits exactly at its limit while sliding (eq. 16).
-  void on_enter(Mode mode, const Point&, State& y) const noexcept {
+  void on_enter(Mode mode, const Point&, State& y, Mode /*from*/) const noexcept {
     if (mode == Mode::kSlidePos) y.s = m.s0;
     if (mode == Mode::kSlideNeg) y.s = -m.s0;
   }
