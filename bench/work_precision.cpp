@@ -13,6 +13,7 @@
 //   --reps       time each run N times and report the fastest (shared machine)
 //   --no-rk4     skip the fixed-step RK4 rows (adaptive only)
 //   --rtols      comma-separated rtol values of the adaptive rows (atol = 10 rtol [N])
+//   --dt-max     largest adaptive step [s] (default: IntegratorOptions' 1e-4)
 // The cpu[s] column is the thread CPU time of the fastest repetition, which is less sensitive
 // than wall time to other load on the machine.
 #include <omp.h>
@@ -109,6 +110,7 @@ int main(int argc, char** argv) {
   int reps = 1;
   bool rk4_rows = true;
   std::vector<double> rtols = {1e-4, 1e-5, 1e-6, 1e-7, 1e-8};
+  double dt_max = 0.0;  // 0: the IntegratorOptions default
   for (int i = 1; i < argc; ++i) {
     if (std::strcmp(argv[i], "--quick") == 0) {
       quick = true;
@@ -120,13 +122,15 @@ int main(int argc, char** argv) {
       rtols.clear();
       for (char* tok = std::strtok(argv[++i], ","); tok; tok = std::strtok(nullptr, ","))
         rtols.push_back(std::atof(tok));
+    } else if (std::strcmp(argv[i], "--dt-max") == 0 && i + 1 < argc) {
+      dt_max = std::atof(argv[++i]);
     } else if (std::strcmp(argv[i], "--no-rk4") == 0) {
       rk4_rows = false;
     } else if (std::strcmp(argv[i], "--reps") == 0 && i + 1 < argc) {
       reps = std::max(1, std::atoi(argv[++i]));
     } else {
       std::fprintf(stderr,
-                   "usage: %s [--quick] [--only MODEL[:V_A_MM_S]] [--ref-cache DIR] [--reps N] [--no-rk4] [--rtols A,B,...]\n",
+                   "usage: %s [--quick] [--only MODEL[:V_A_MM_S]] [--ref-cache DIR] [--reps N] [--no-rk4] [--rtols A,B,...] [--dt-max S]\n",
                    argv[0]);
       return 2;
     }
@@ -231,6 +235,7 @@ int main(int argc, char** argv) {
       cfg.integrator.kind = IntegratorKind::kAdaptive;
       cfg.integrator.rtol = rtol;
       cfg.integrator.atol = rtol * 10.0;
+      if (dt_max > 0) cfg.integrator.dt_max = dt_max;
       timed_row(c, "adaptive", "rtol", rtol, cfg, ref);
     }
   }

@@ -74,7 +74,7 @@ void rk4_event(RunContext& ctx, const H& hyb, State& y) {
     const double h = (t1 - t0) / static_cast<double>(n);
     auto point = [&](double t, const State& z) { return p.point(t, z.x, z.v); };
     typename H::Mode mode = hyb.classify(point(t0, y), y.s);
-    hyb.on_enter(mode, point(t0, y), y);
+    hyb.on_enter(mode, point(t0, y), y, mode);
     for (long k = 0; k < n; ++k) {
       double t = t0 + static_cast<double>(k) * h;
       const double t_next = t0 + static_cast<double>(k + 1) * h;
@@ -98,7 +98,7 @@ void rk4_event(RunContext& ctx, const H& hyb, State& y) {
           y = y1;
           t = t_next;
           mode = hyb.classify(point(t, y), y.s);
-          hyb.on_enter(mode, point(t, y), y);
+          hyb.on_enter(mode, point(t, y), y, mode);
           ++ctx.result.switches;
           break;
         }
@@ -117,8 +117,9 @@ void rk4_event(RunContext& ctx, const H& hyb, State& y) {
           const Deriv d = f(p, t, y);
           acc.sample(t, d.F_d, d.F_f);
         }
+        const typename H::Mode from = mode;
         mode = hyb.settle(mode, next, point(t, y));
-        hyb.on_enter(mode, point(t, y), y);
+        hyb.on_enter(mode, point(t, y), y, from);
         {
           const Deriv d = Frozen<H>{hyb, mode}(p, t, y);
           acc.sample(t, d.F_d, d.F_f);

@@ -197,12 +197,26 @@ struct KarnoppHybrid {
   /// Projects the state onto the entered mode's set: on an edge v_r = +-DV exactly, inside the
   /// band |v_r| <= DV. Without this, round-off drift of 1e-11 m/s past an edge makes the band's
   /// exit event fire at once, and the integrator ping-pongs between modes at zero step length.
-  void on_enter(Mode mode, const Point& p, State& y) const noexcept {
+  ///
+  /// A slip that ends in the band (from kSlipPos/kSlipNeg) ends exactly on its edge: the
+  /// located point is up to the locator's tolerance past the event v_r = +-DV, and the body
+  /// then creeps through the whole stick at that velocity. The creep velocity's shortfall eps
+  /// below DV delays the next breakaway by sqrt(2 m eps / (k_d v_d)) (the band must be crossed
+  /// by the saturated acceleration first): eps = 4e-14 m/s (a 1e-14 s tolerance at 4 m/s^2)
+  /// gave a 7e-8 s late slip and 1.5e-6 N of F_d offset per stick-slip cycle. The edge is
+  /// entered 1e-12 DV inside: exactly on it, the round-off of v_r = x' - u' (~1e-21 m/s) made
+  /// the band's exit event fire at once under vibration (4757 zero-length switch loops in 6 s
+  /// at 4 mm/s, each ending in a step taken without location: 0.03 N momentum imbalance).
+  static constexpr double kEdgeInside = 1.0 - 1e-12;
+  void on_enter(Mode mode, const Point& p, State& y, Mode from) const noexcept {
     double target = p.v_r;
     if (mode == Mode::kEdgePos) target = m.DV;
     else if (mode == Mode::kEdgeNeg) target = -m.DV;
-    else if (mode == Mode::kStick || mode == Mode::kSatPos || mode == Mode::kSatNeg)
+    else if (mode == Mode::kStick || mode == Mode::kSatPos || mode == Mode::kSatNeg) {
       target = std::fmin(std::fmax(p.v_r, -m.DV), m.DV);
+      if (from == Mode::kSlipPos) target = kEdgeInside * m.DV;
+      if (from == Mode::kSlipNeg) target = -kEdgeInside * m.DV;
+    }
     y.v += target - p.v_r;
   }
 };
@@ -253,7 +267,7 @@ struct ResetHybrid {
   }
   Mode settle(Mode /*from*/, Mode to, const Point&) const noexcept { return to; }
   /// The strain sits exactly at its limit while sliding (eq. 16).
-  void on_enter(Mode mode, const Point&, State& y) const noexcept {
+  void on_enter(Mode mode, const Point&, State& y, Mode /*from*/) const noexcept {
     if (mode == Mode::kSlidePos) y.s = m.s0;
     if (mode == Mode::kSlideNeg) y.s = -m.s0;
   }
@@ -339,14 +353,33 @@ std::string divergence_reason(const SimConfig& cfg, double t, const State& y, do
 /// 1e-15 s), the next mode's classification sent it back to the old mode, and the old mode's
 /// event was 0 again at once: a loop of zero-length switches (the rk4_event dt = 1e-7 Karnopp
 /// bug: 3.6e7 switches, a body creeping at v_r = DV for ever).
+///
+/// Safeguard: every fifth iteration the bracket must have shrunk to half its width five
+/// iterations before, otherwise that iteration bisects. Event functions are minima over several
+/// conditions (Karnopp's stick mode: min(F_S - F_d, DV - v_r, ...)), and a body creeping at
+/// v_r = DV - 1e-19 makes the minimum ~1e-19 and flat until F_d crosses F_S. Regula falsi then
+/// creeps from the flat end: Illinois needs ~50 halvings of f(b) before it moves, the 80
+/// iterations ran out with the bracket still [~0, h], and the switch was taken at the END of the
+/// step. With the adaptive integrator's 1e-4 s stick steps every Karnopp breakaway came up to
+/// 1e-4 s late (the ~1e-2 N RMS "adaptive vs rk4_event bias"; test
+/// EventLocation.AdaptiveKarnoppBreakawayOnTime).
 template <class Out, class Eval>
 double locate_switch(double f0, double h, double f_h, Out& out_h, Eval&& eval) {
   double a = 0.0, fa = std::fmax(f0, 0.0), b = h, fb = f_h;
   int side = 0;
   const double tol = std::fmax(1e-15, 1e-10 * h);
-  for (int it = 0; it < 80 && b - a > tol; ++it) {
+  double width_check = b - a;
+  for (int it = 0; it < 200 && b - a > tol; ++it) {
+    bool bisect = false;
+    if (it % 5 == 4) {
+      bisect = b - a > 0.5 * width_check;
+      width_check = b - a;
+    }
     double th = (fa - fb) != 0.0 ? b - fb * (b - a) / (fb - fa) : 0.5 * (a + b);
-    if (!(th > a && th < b)) th = 0.5 * (a + b);
+    if (bisect || !(th > a && th < b)) {
+      th = 0.5 * (a + b);
+      side = 0;  // no Illinois halving right after a bisection
+    }
     Out ot;
     const double ft = eval(th, ot);
     if (ft < 0.0) {

@@ -1,5 +1,6 @@
 // Regression tests for located stick/slip switches at small steps.
 #include <gtest/gtest.h>
+#include <cmath>
 
 #include "stickslip/engine/simulate.h"
 
@@ -47,4 +48,29 @@ TEST(EventLocation, Rk4EventSmallStepKarnoppVibratingAgreesWithAdaptive) {
     EXPECT_NEAR(ev.stages[i].mean_force, ad.stages[i].mean_force, 1e-3) << "stage " << i;
   // At most a few switches per vibration period (1500 Hz x 0.5 s = 750 periods).
   EXPECT_LT(ev.switches, 20u * 750u);
+}
+
+// The adaptive integrator must break away when F_d reaches F_S, not at the end of its step.
+// After the first slip the body creeps in the band at v_r = DV - 1e-19, so the stick mode's
+// event min(F_S - F_d, DV - v_r, ...) is ~1e-19 and flat until F_d crosses F_S; regula falsi
+// stalled on that flat minimum, ran out of iterations, and the switch was taken at the end of
+// the 1e-4 s step: the second breakaway (t = 1.4585 s) came 2e-5 s late and F_d stayed 4.8e-4 N
+// off afterwards (the ~1e-2 N RMS "adaptive vs rk4_event bias" over 20 s). rk4_event at
+// dt = 1e-6 (steps 100x shorter) locates it correctly; the two must now agree to 1e-6 N.
+TEST(EventLocation, AdaptiveKarnoppBreakawayOnTime) {
+  SimConfig c = SimConfig::seed(ModelKind::kKarnopp, 0.0);
+  c.stages = {Stage{2.0, 0.0, 1500.0}};  // breakaways at ~0.93 s and ~1.46 s
+  c.integrator.kind = IntegratorKind::kRk4Event;
+  c.integrator.dt = 1e-6;
+  const SimResult ev = simulate(c);
+  c.integrator.kind = IntegratorKind::kAdaptive;
+  c.integrator.rtol = 1e-8;
+  c.integrator.atol = 1e-8;
+  const SimResult ad = simulate(c);
+  ASSERT_EQ(ev.status, RunStatus::kOk) << ev.reason;
+  ASSERT_EQ(ad.status, RunStatus::kOk) << ad.reason;
+  EXPECT_EQ(ev.switches, ad.switches);
+  const double k_d = c.drive.k_d;
+  // Measured after the fix: 8e-8 N (was 4.8e-4 N).
+  EXPECT_LT(k_d * std::fabs(ev.x_end - ad.x_end), 1e-6);
 }
