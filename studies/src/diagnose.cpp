@@ -434,7 +434,16 @@ Diagnosis diagnose(const MeasuredDataset& data, const DiagnoseOptions& o) {
         th.insert(th.end(), es.begin(), es.end());
         starts.push_back(th);
       }
-      const FitResult fr = fit(P, c.model, starts, Span::kFit, 0, o.max_evals_candidate);
+      // Phase A: cycle features (mean, amplitude, period per stage; smooth in the parameters,
+      // unlike the slip timing), so the base parameters can move far from the base optimum
+      // together with the extension (a viscous term raises the cycle mean that the base had
+      // absorbed in F_C). Phase B: time domain from the better of phase A's optimum and the
+      // extension's own starting values.
+      const int n_feat = o.max_evals_candidate / 2;
+      const FitResult fa = fit(P, c.model, starts, Span::kFeatures, 0, n_feat);
+      if (fa.ok) starts.insert(starts.begin(), fa.theta);
+      FitResult fr = fit(P, c.model, starts, Span::kFit, 0, o.max_evals_candidate - fa.evals);
+      fr.evals += fa.evals;
       c.res.evals = fr.evals;
       if (!fr.ok) throw std::runtime_error(fr.reason);
       c.theta = fr.theta;
