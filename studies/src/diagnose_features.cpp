@@ -52,6 +52,18 @@ Features extract_features(const std::vector<double>& t, const std::vector<double
     f.Q.emplace_back();
     f.blocks.emplace_back();
     const auto i0 = static_cast<std::size_t>(std::lower_bound(t.begin(), t.end(), w.t0) - t.begin());
+    {
+      double s1 = 0, s2 = 0;
+      int n = 0;
+      for (std::size_t i = i0; i < t.size() && t[i] <= w.t1; ++i) {
+        s1 += F[i];
+        s2 += F[i] * F[i];
+        ++n;
+      }
+      const double mu = n ? s1 / n : 0.0;
+      f.mean.push_back(mu);
+      f.sd.push_back(n ? std::sqrt(std::max(0.0, s2 / n - mu * mu)) : 0.0);
+    }
     if (!w.cycles) {
       for (double b = w.t0; b + 0.25 <= w.t1 + 1e-9; b += 0.25) {
         double s = 0;
@@ -102,6 +114,9 @@ void feature_residuals(const Features& m, const Features& s, const std::vector<W
                        std::vector<double>* other_terms) {
   for (std::size_t w = 0; w < windows.size(); ++w) {
     // Fixed length (3 per measured slip + 1 + the measured blocks), so Gauss-Newton can use it.
+    level_terms->push_back(m.mean[w] - s.mean[w]);  // twice: weight 2 (offset-consistent)
+    level_terms->push_back(m.mean[w] - s.mean[w]);
+    other_terms->push_back(2.0 * (m.sd[w] - s.sd[w]));
     const std::size_t nm = m.t[w].size(), ns = s.t[w].size();
     const double pp = windows[w].peak_to_peak;
     for (std::size_t k = 0; k < nm; ++k) {

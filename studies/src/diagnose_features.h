@@ -15,6 +15,9 @@
 //        [t_k - 0.10 s, t_k - 0.01 s] (the body is stuck, so F_d rises at k_d v_d; the mean
 //        averages the noise, unlike a sample maximum);
 //   Q_k  the same over [t_k + 0.05 s, t_k + 0.12 s] (stuck again after the slip).
+// Per window in every case: the mean and the standard deviation of F_d (continuous in the
+// parameters even where slips appear or vanish, so they still point the way when the slip counts
+// differ and the cycle terms are flat).
 // Per other stage window (vibrating base, or no stick-slip): the mean of F_d over consecutive 0.25 s blocks.
 // Residuals: k_d v_d (t_k^meas - t_k^sim) [N], P, Q and block-mean differences [N] (minus
 // their mean when a sensor offset is fitted); every slip of one signal without a partner in the
@@ -34,6 +37,7 @@ struct WindowSpec {
 struct Features {
   std::vector<std::vector<double>> t, P, Q;  ///< per window, per slip
   std::vector<std::vector<double>> blocks;   ///< per window, block means [N]
+  std::vector<double> mean, sd;              ///< per window: mean and standard deviation [N]
 };
 
 /// Window spec from measured samples (t, F) in [t0, t1]; still: the base does not vibrate

@@ -44,6 +44,7 @@ struct DiagnoseOptions {
   double rtol = 1e-5;                   ///< engine accuracy while fitting (rtol = atol [N])
   int max_evals_base = 70;              ///< objective evaluations per base model
   int max_evals_candidate = 45;         ///< objective evaluations per extension
+  int max_evals_profile = 12;           ///< per profile start (base refit at a fixed size)
   double alpha = 0.01;                  ///< family-wise significance level [-]
   double min_gain = 0.1;                ///< minimum held-out gain to name a cause [-]
   bool fit_offset = true;               ///< fit one constant sensor offset [N]
