@@ -11,6 +11,7 @@
 // with a 0.1 N sensor offset.
 
 #include <cstdint>
+#include <ostream>
 #include <string>
 #include <vector>
 
@@ -32,6 +33,9 @@ struct HiddenCase {
   /// fail today and run only with STICKSLIP_DIAGNOSE_SUITE (docs/diagnose.md "Status").
   bool in_ci = false;
 };
+
+/// GoogleTest prints a case by its name (not as bytes) in test names and messages.
+inline void PrintTo(const HiddenCase& c, std::ostream* os) { *os << c.name; }
 
 /// Every catalogue effect at a moderate size, the nulls (white and AR(1) noise) and a few
 /// effects too small to see.
