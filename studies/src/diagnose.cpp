@@ -34,6 +34,8 @@ bool DiagnoseOptions::IsValid(std::string* why) const {
   if (max_evals_base < 10) return fail("max_evals_base = " + std::to_string(max_evals_base) + ": must be >= 10");
   if (max_evals_candidate < 10)
     return fail("max_evals_candidate = " + std::to_string(max_evals_candidate) + ": must be >= 10");
+  if (max_evals_profile < 4)
+    return fail("max_evals_profile = " + std::to_string(max_evals_profile) + ": must be >= 4");
   if (!(alpha > 0 && alpha < 1)) return fail("alpha = " + std::to_string(alpha) + ": must be in (0, 1)");
   if (!(min_gain >= 0 && min_gain < 1)) return fail("min_gain = " + std::to_string(min_gain) + ": must be in [0, 1)");
   for (ExtensionKind k : candidates)
@@ -232,9 +234,9 @@ std::vector<std::vector<double>> extension_starts(ExtensionKind k, const std::ve
                                                   double F_C0) {
   std::vector<std::vector<double>> s;
   switch (k) {
-    case ExtensionKind::kViscous: s = {{0.0}, {50.0}}; break;
+    case ExtensionKind::kViscous: s = {{0.0}, {20.0}, {60.0}, {150.0}}; break;
     case ExtensionKind::kStribeckShape: s = {{2.0}, {1.0}, {4.0}}; break;
-    case ExtensionKind::kDwellTime: s = {{0.05, 0.1}, {0.3, 0.01}, {0.3, 0.3}, {1.0, 1.0}}; break;
+    case ExtensionKind::kDwellTime: s = {{0.0, 0.1}, {0.3, 0.1}, {1.0, 0.1}, {0.3, 1.0}}; break;
     case ExtensionKind::kWaviness: {
       // The three strongest local maxima of the residual spectrum against x.
       std::vector<std::size_t> peaks;
@@ -262,7 +264,7 @@ std::vector<std::vector<double>> extension_starts(ExtensionKind k, const std::ve
     case ExtensionKind::kSensorDynamics:
       s = {{2e-3, 0.7}, {1e-3, 0.3}, {5e-3, 1.0}, {5e-3, 0.3}};
       break;
-    case ExtensionKind::kDriveDamping: s = {{1.0}, {20.0}}; break;
+    case ExtensionKind::kDriveDamping: s = {{0.0}, {10.0}, {30.0}, {80.0}}; break;
     case ExtensionKind::kNone: break;
   }
   return s;
@@ -429,13 +431,39 @@ Diagnosis diagnose(const MeasuredDataset& data, const DiagnoseOptions& o) {
       c.model.specs.insert(c.model.specs.end(), ext.begin(), ext.end());
       c.res.dof = static_cast<int>(ext.size());
       std::vector<std::vector<double>> starts;
-      for (const auto& es : extension_starts(o.candidates[i], ext, ev, scan, F_C0)) {
+      // Effects that act on the slip itself (viscous, drive damping, Stribeck shape, dwell
+      // time) change the stick-slip cycle so much that the base optimum is no start for a
+      // moderate size: their cycle features at (base optimum, size) miss slips. For them every
+      // starting size gets its own profile start: the base parameters refitted on the
+      // features with the extension held at that size.
+      const ExtensionKind kind = o.candidates[i];
+      const bool profile = kind == ExtensionKind::kViscous || kind == ExtensionKind::kDriveDamping ||
+                           kind == ExtensionKind::kStribeckShape || kind == ExtensionKind::kDwellTime;
+      for (const auto& es : extension_starts(kind, ext, ev, scan, F_C0)) {
         std::vector<double> th = base.theta;
+        const bool neutral = profile && es[0] == (kind == ExtensionKind::kStribeckShape ? 2.0 : 0.0);
+        if (profile && !neutral) {
+          FitModel pm = base.model;
+          pm.base.extension.kind = kind;
+          for (std::size_t j = 0; j < es.size(); ++j) set_parameter(pm.base, ext[j].name, es[j]);
+          const FitResult pr = fit(P, pm, {base.theta}, Span::kFeatures, 0, o.max_evals_profile);
+          c.res.evals += pr.evals;
+          if (pr.ok) th = pr.theta;
+        }
         th.insert(th.end(), es.begin(), es.end());
         starts.push_back(th);
       }
-      const FitResult fr = fit(P, c.model, starts, Span::kFit, 0, o.max_evals_candidate);
-      c.res.evals = fr.evals;
+      // Phase A: cycle features (mean, amplitude, period per stage; smooth in the parameters,
+      // unlike the slip timing), so the base parameters can move far from the base optimum
+      // together with the extension (a viscous term raises the cycle mean that the base had
+      // absorbed in F_C). Phase B: time domain from the better of phase A's optimum and the
+      // extension's own starting values.
+      const int n_feat = o.max_evals_candidate / 2;
+      const FitResult fa = fit(P, c.model, starts, Span::kFeatures, 0, n_feat);
+      if (fa.ok) starts.insert(starts.begin(), fa.theta);
+      FitResult fr = fit(P, c.model, starts, Span::kFit, 0, o.max_evals_candidate - fa.evals);
+      fr.evals += fa.evals;
+      c.res.evals += fr.evals;
       if (!fr.ok) throw std::runtime_error(fr.reason);
       c.theta = fr.theta;
       c.full = evaluate(P, c.model, c.theta, Span::kFull, 0);

@@ -76,6 +76,20 @@ Problem make_problem(const MeasuredDataset& data, const DiagnoseOptions& o) {
       r.stage_start.push_back(t0);
       t0 += s.duration;
     }
+    {  // Feature windows: the fitted part of every stage, from the full-rate measured signal.
+      std::vector<double> ft, fy;
+      for (std::size_t i = 0; i < mr.t.size() && mr.t[i] <= r.cond.duration; ++i) {
+        ft.push_back(mr.t[i]);
+        fy.push_back(mr.Fd[i]);
+      }
+      for (std::size_t j = 0; j < stages.size(); ++j) {
+        const double s = stages[j].first, d = stages[j].second - s;
+        double e = s + (1.0 - o.holdout_fraction) * d;
+        if (j > 0) e = std::min(e, s + o.later_stage_fit_span);
+        r.windows.push_back(make_window(ft, fy, s, e, c.stages[j].v_a <= 0.0));
+      }
+      r.features = extract_features(ft, fy, r.windows, r.cond.kd * r.cond.vd);
+    }
     for (std::size_t i = 0; i < mr.t.size(); i += step) {
       const double t = mr.t[i];
       if (t > r.cond.duration) break;
@@ -120,6 +134,7 @@ Evaluation evaluate(const Problem& p, const FitModel& m, const std::vector<doubl
                     Span span, double short_end) {
   Evaluation e;
   e.sims.resize(p.runs.size());
+  std::vector<double> feat_level, feat_other;
   for (std::size_t k = 0; k < p.runs.size(); ++k) {
     const RunData& r = p.runs[k];
     const double t_end = span_end(r, span, short_end);
@@ -135,6 +150,17 @@ Evaluation evaluate(const Problem& p, const FitModel& m, const std::vector<doubl
     if (res.status != RunStatus::kOk || res.trace.size() < 2) {
       e.reason = "run " + r.name + ": " + to_string(res.status) + " " + res.reason;
       return e;
+    }
+    if (span == Span::kFeatures) {
+      std::vector<double> tt, ff;
+      tt.reserve(res.trace.size());
+      ff.reserve(res.trace.size());
+      for (const TraceSample& q : res.trace) {
+        tt.push_back(q.t);
+        ff.push_back(q.F_d);
+      }
+      feature_residuals(r.features, extract_features(tt, ff, r.windows, r.cond.kd * r.cond.vd),
+                        r.windows, r.cond.kd * r.cond.vd, &feat_level, &feat_other);
     }
     // Linear interpolation of the trace at the sample times.
     std::size_t j = 0;
@@ -171,30 +197,21 @@ Evaluation evaluate(const Problem& p, const FitModel& m, const std::vector<doubl
     }
   }
   if (span == Span::kFeatures) {
-    // Per run and stage: mean, cycle amplitude and period (as the force rise over one period,
-    // k_d v_d T) of the fitted part, measured against simulated.
+    // Per-cycle and per-stage features (diagnose_features.h); the sensor offset shifts every
+    // level term alike and is removed in closed form.
+    double off = 0;
+    if (p.fit_offset && !feat_level.empty()) {
+      for (double v : feat_level) off += v;
+      off /= static_cast<double>(feat_level.size());
+    }
     double sse = 0;
-    for (std::size_t k = 0; k < p.runs.size(); ++k) {
-      const RunData& r = p.runs[k];
-      for (std::size_t j = 0; j < r.stage_start.size(); ++j) {
-        MetricOptions mo;
-        mo.settle_fraction = 0.0;
-        const double t0 = r.stage_start[j] + (j == 0 ? 0.5 : 0.3);  // skip the start transient
-        const double t1 = std::min(j + 1 < r.stage_start.size() ? r.stage_start[j + 1] : r.cond.duration, r.fit_end);
-        if (t1 <= t0) continue;
-        StageAccumulator am(t0, t1, mo), as(t0, t1, mo);
-        for (std::size_t i = 0; i < e.sims[k].F.size(); ++i) {
-          if (r.role[i] != kFit || r.t[i] < t0 || r.t[i] > t1) continue;
-          am.sample(r.t[i], r.y[i], 0);
-          as.sample(r.t[i], e.sims[k].F[i], 0);
-        }
-        const StageMetrics a = am.finish(), b = as.finish();
-        const double rise = r.cond.kd * r.cond.vd;
-        const double d_mean = a.mean_force - b.mean_force;
-        const double d_amp = a.amplitude - b.amplitude;
-        const double d_per = rise * (a.mean_period - b.mean_period);
-        sse += d_mean * d_mean + d_amp * d_amp + d_per * d_per;
-      }
+    for (double v : feat_level) {
+      e.feat.push_back(v - off);
+      sse += (v - off) * (v - off);
+    }
+    for (double v : feat_other) {
+      e.feat.push_back(v);
+      sse += v * v;
     }
     e.sse_fit = sse;
   }
@@ -249,6 +266,71 @@ double objective(unsigned n, const double* u, double* /*grad*/, void* data) {
   return e.sse_fit;
 }
 
+/// Levenberg-Marquardt on the feature residuals in the unit box (forward-difference Jacobian,
+/// Eigen), from c.best_u, until max_evals. Written here because NLopt has no least-squares
+/// solver and the features are smooth least-squares residuals, where Gauss-Newton steps move
+/// correlated parameters (an extension's size and F_C) together in a few iterations.
+void levenberg_marquardt(Ctx& c, unsigned n) {
+  auto residuals = [&](const std::vector<double>& u, std::vector<double>* r) {
+    ++c.evals;
+    const Evaluation e = evaluate(*c.p, *c.m, to_theta(*c.m, u), c.span, c.short_end);
+    if (!e.ok) return std::numeric_limits<double>::infinity();
+    *r = e.feat;
+    if (e.sse_fit < c.best) {
+      c.best = e.sse_fit;
+      c.best_u = u;
+    }
+    return e.sse_fit;
+  };
+  std::vector<double> u = c.best_u, r0;
+  double f0 = residuals(u, &r0);
+  if (!std::isfinite(f0)) return;
+  double lambda = 1e-2;
+  while (c.evals + static_cast<int>(n) + 1 <= c.max_evals) {
+    const auto m = static_cast<Eigen::Index>(r0.size());
+    Eigen::MatrixXd J(m, n);
+    bool ok = true;
+    for (unsigned j = 0; j < n && ok; ++j) {
+      std::vector<double> uj = u, rj;
+      const double h = uj[j] > 0.99 ? -2e-3 : 2e-3;
+      uj[j] += h;
+      if (!std::isfinite(residuals(uj, &rj)) || rj.size() != r0.size()) { ok = false; break; }
+      for (Eigen::Index i = 0; i < m; ++i) J(i, j) = (rj[static_cast<std::size_t>(i)] - r0[static_cast<std::size_t>(i)]) / h;
+    }
+    if (!ok) return;
+    const Eigen::VectorXd r = Eigen::Map<const Eigen::VectorXd>(r0.data(), m);
+    const Eigen::MatrixXd A = J.transpose() * J;
+    const Eigen::VectorXd g = J.transpose() * r;
+    bool improved = false;
+    while (c.evals < c.max_evals) {
+      Eigen::MatrixXd B = A;
+      for (unsigned j = 0; j < n; ++j) B(j, j) += lambda * (A(j, j) + 1e-9);
+      const Eigen::VectorXd d = B.ldlt().solve(-g);
+      std::vector<double> u1 = u, r1;
+      double moved = 0;
+      for (unsigned j = 0; j < n; ++j) {
+        u1[j] = std::clamp(u[j] + d(j), 0.0, 1.0);
+        moved = std::max(moved, std::fabs(u1[j] - u[j]));
+      }
+      if (moved < 1e-5) return;  // converged
+      const double f1 = residuals(u1, &r1);
+      if (std::isfinite(f1) && f1 < f0 && r1.size() == r0.size()) {
+        u = u1;
+        r0 = r1;
+        const bool small = f0 - f1 < 1e-6 * f0;
+        f0 = f1;
+        lambda = std::max(lambda / 3, 1e-6);
+        improved = true;
+        if (small) return;
+        break;
+      }
+      lambda *= 4;
+      if (lambda > 1e6) return;
+    }
+    if (!improved) return;
+  }
+}
+
 }  // namespace
 
 FitResult fit(const Problem& p, const FitModel& m, const std::vector<std::vector<double>>& starts,
@@ -264,6 +346,14 @@ FitResult fit(const Problem& p, const FitModel& m, const std::vector<std::vector
   if (c.best_u.empty()) {
     out.reason = "no starting point could be simulated: " + c.last_reason;
     out.evals = c.evals;
+    return out;
+  }
+  if (span == Span::kFeatures) {
+    levenberg_marquardt(c, n);
+    out.theta = to_theta(m, c.best_u);
+    out.sse = c.best;
+    out.evals = c.evals;
+    out.ok = std::isfinite(c.best);
     return out;
   }
   const int left = max_evals - c.evals;

@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "diagnose_features.h"
 #include "stickslip/engine/params.h"
 #include "stickslip/studies/diagnose.h"
 #include "stickslip/studies/measured.h"
@@ -22,6 +23,8 @@ struct RunData {
   std::vector<int> stage;            ///< stage index per sample
   std::vector<double> stage_start;   ///< [s]
   double fit_end = 0;                ///< last fitted time [s]
+  std::vector<WindowSpec> windows;   ///< fitted part of every stage, for the features
+  Features features;                 ///< of the measured signal at its full rate
 };
 
 struct Problem {
@@ -68,6 +71,7 @@ struct Evaluation {
   double sse_fit = 0, sse_held = 0, offset = 0;
   std::size_t n_fit = 0, n_held = 0;
   std::vector<RunSim> sims;  ///< per run
+  std::vector<double> feat;  ///< kFeatures: the feature residuals (fixed length per problem)
 };
 
 /// Simulates every run up to the span's end and scores the samples. Short: fit samples with

@@ -1,13 +1,19 @@
 // Synthetic measured data and the diagnosis.
 //
-// Default CI: synth round trip through load_measured and the noise model's statistics.
-// Opt-in (STICKSLIP_DIAGNOSE_SUITE): a clean-data (null) diagnosis on a short two-run LuGre
-// dataset, and the hidden-effect suite below.
-// Hidden-effect suite (each catalogue effect hidden in LuGre data; must find the right cause
-// with positive held-out gain and recover the size parameter): set STICKSLIP_DIAGNOSE_SUITE=1
-// (one seed per case) or =full (three seeds per case). It is NOT in default CI because it does
-// not pass yet (see docs/diagnose.md "Status") and takes ~1 min per case on 2 cores.
+// Synth: round trip through load_measured and the noise model's statistics.
+// Hidden-effect suite (issue 5; cases in studies/src/diagnose_suite.cpp): every catalogue
+// effect hidden in LuGre data at a moderate size must be named as the cause, with a positive
+// held-out gain and its size parameter recovered within the case's tolerance (30-40 %); clean
+// data (white and AR(1) noise, base parameters 5-10 % off Table 1) must give "none"; an effect
+// too small to see must not be named as a wrong cause. Default CI: the short datasets, 2 seeds
+// per case, only the cases that pass today (HiddenCase::in_ci: dwell_time, drift, clean_white,
+// small_viscous); viscous, stribeck_shape, waviness, normal_load_modulation, sensor_dynamics,
+// drive_damping and clean_ar1 FAIL today (clean_ar1: 1 of 2 seeds) and run only with
+// STICKSLIP_DIAGNOSE_SUITE=1; small_drift and small_normal_load pass but are left out of default
+// CI for time (docs/diagnose.md). STICKSLIP_DIAGNOSE_SUITE=full: the full datasets (3 runs x 7 s at 2 kHz, every base
+// model), 3 seeds per case. bench/diagnose_suite prints the confusion table.
 #include "stickslip/studies/diagnose.h"
+#include "stickslip/studies/diagnose_suite.h"
 
 #include <gtest/gtest.h>
 
@@ -42,13 +48,6 @@ SynthOptions short_dataset(std::uint64_t seed) {
   return o;
 }
 
-DiagnoseOptions fast_options() {
-  DiagnoseOptions d;
-  d.models = {ModelKind::kLuGre};
-  d.max_evals_base = 50;
-  d.max_evals_candidate = 35;
-  return d;
-}
 
 }  // namespace
 
@@ -97,69 +96,52 @@ TEST(Synth, NoiseIsWhiteOrAr1WithTheRequestedStatistics) {
   EXPECT_THROW(synthesize(o), std::invalid_argument);
 }
 
-// Clean data (AR(1) noise, parameters 5-10 % off Table 1): the base is recovered and no cause
-// is named.
-TEST(Diagnose, CleanDataNamesNoCause) {
-  // Opt-in like the suite: with these fast options the base calibration does not converge
-  // fully and an extension (sensor_dynamics) absorbs the rest: a false positive (issue 5 open).
-  if (!std::getenv("STICKSLIP_DIAGNOSE_SUITE")) GTEST_SKIP() << "set STICKSLIP_DIAGNOSE_SUITE=1";
-  SynthOptions o = short_dataset(5);
-  o.model.friction.F_S = 11.1 * 1.06;
-  o.model.friction.F_C = 8.3 * 0.95;
-  o.model.friction.v_s = 3.5e-4 * 0.92;
-  o.noise_rho = 0.8;
-  const Diagnosis d = diagnose(synthesize(o), fast_options());
-  EXPECT_EQ(d.cause, "none") << summary_text(d);
-  EXPECT_EQ(d.base_model, ModelKind::kLuGre);
-  ASSERT_GE(d.base_params.size(), 2u);
-  EXPECT_NEAR(d.base_params[0].value, o.model.friction.F_S, 0.02 * o.model.friction.F_S);
-  EXPECT_NEAR(d.base_params[1].value, o.model.friction.F_C, 0.02 * o.model.friction.F_C);
-  EXPECT_LT(d.rmse_base_heldout, 0.05);  // close to the 0.03 N noise
-  const auto j = to_json(d);
-  for (const char* f : {"base_model", "base_params", "cause", "rmse_base_heldout",
-                        "rmse_extended_heldout", "gain", "candidates", "evidence", "calibrations"})
-    EXPECT_TRUE(j.contains(f)) << f;
-  EXPECT_EQ(j["candidates"].size(), 8u);
+// ---- hidden-effect suite ----------------------------------------------------------------------
+
+namespace {
+
+bool full_suite() {
+  const char* env = std::getenv("STICKSLIP_DIAGNOSE_SUITE");
+  return env && std::string(env) == "full";
 }
 
-// ---- hidden-effect suite (opt-in) ------------------------------------------------------------
-
-struct Hidden {
-  ExtensionKind kind;
-  const char* param;
-  double value;
-  double rel_tol;  ///< recovery tolerance of the size parameter [-]
-};
-
-class HiddenEffect : public ::testing::TestWithParam<Hidden> {};
-
-TEST_P(HiddenEffect, FindsTheRightCause) {
-  const char* env = std::getenv("STICKSLIP_DIAGNOSE_SUITE");
-  if (!env) GTEST_SKIP() << "set STICKSLIP_DIAGNOSE_SUITE=1 (or full) to run";
-  const int seeds = std::string(env) == "full" ? 3 : 1;
-  const Hidden h = GetParam();
+void run_case(const HiddenCase& c) {
+  const bool full = full_suite();
+  if (!c.in_ci && !std::getenv("STICKSLIP_DIAGNOSE_SUITE"))
+    GTEST_SKIP() << c.name << " is not found reliably yet (docs/diagnose.md \"Status\"); set "
+                 << "STICKSLIP_DIAGNOSE_SUITE=1 (or full) to run it";
+  const int seeds = full ? 3 : 2;
   for (int s = 0; s < seeds; ++s) {
-    SynthOptions o = short_dataset(100 + s);
-    o.model.extension.kind = h.kind;
-    set_parameter(o.model, h.param, h.value);
-    const Diagnosis d = diagnose(synthesize(o), fast_options());
-    EXPECT_EQ(d.cause, to_string(h.kind)) << "seed " << s << "\n" << summary_text(d);
-    EXPECT_GT(d.gain, 0.0) << "seed " << s;
-    for (const auto& c : d.candidates)
-      if (c.kind == h.kind && !c.params.empty()) {
-        EXPECT_NEAR(c.params[0].value, h.value, h.rel_tol * std::fabs(h.value)) << "seed " << s;
-      }
+    const Diagnosis d = diagnose(synthesize(hidden_case_dataset(c, 1000 + s, full)),
+                                 hidden_case_options(full));
+    const HiddenVerdict v = judge(c, d);
+    EXPECT_TRUE(v.cause_ok) << c.name << " seed " << s << ": named " << d.cause << "\n"
+                            << summary_text(d);
+    EXPECT_TRUE(v.gain_ok) << c.name << " seed " << s << ": gain " << d.gain;
+    EXPECT_TRUE(v.param_ok) << c.name << " seed " << s << ": " << c.param << " = " << v.recovered
+                            << ", hidden " << c.value << " (tolerance " << c.rel_tol * 100 << " %)";
+    if (c.kind == ExtensionKind::kNone && s == 0) {
+      // The base is recovered and the JSON has every field issue 5 asks for.
+      EXPECT_EQ(d.base_model, ModelKind::kLuGre);
+      ASSERT_GE(d.base_params.size(), 2u);
+      EXPECT_NEAR(d.base_params[0].value, 11.1 * 1.06, 0.02 * 11.1 * 1.06);
+      EXPECT_NEAR(d.base_params[1].value, 8.3 * 0.95, 0.02 * 8.3 * 0.95);
+      const auto j = to_json(d);
+      for (const char* f : {"base_model", "base_params", "cause", "rmse_base_heldout",
+                            "rmse_extended_heldout", "gain", "candidates", "evidence",
+                            "calibrations"})
+        EXPECT_TRUE(j.contains(f)) << f;
+      EXPECT_EQ(j["candidates"].size(), 8u);
+    }
   }
 }
 
+}  // namespace
+
+class HiddenEffect : public ::testing::TestWithParam<HiddenCase> {};
+
+TEST_P(HiddenEffect, NamesTheRightCause) { run_case(GetParam()); }
+
 INSTANTIATE_TEST_SUITE_P(
-    Catalogue, HiddenEffect,
-    ::testing::Values(Hidden{ExtensionKind::kViscous, "sigma2", 30.0, 0.3},
-                      Hidden{ExtensionKind::kStribeckShape, "stribeck_delta", 1.0, 0.3},
-                      Hidden{ExtensionKind::kDwellTime, "dwell_A", 0.4, 0.3},
-                      Hidden{ExtensionKind::kWaviness, "waviness_eps", 0.05, 0.3},
-                      Hidden{ExtensionKind::kDrift, "drift_gamma", 10.0, 0.3},
-                      Hidden{ExtensionKind::kNormalLoadModulation, "load_eta", 0.3, 0.3},
-                      Hidden{ExtensionKind::kSensorDynamics, "sensor_tau", 5e-3, 0.3},
-                      Hidden{ExtensionKind::kDriveDamping, "c_d", 20.0, 0.3}),
-    [](const ::testing::TestParamInfo<Hidden>& i) { return std::string(to_string(i.param.kind)); });
+    Suite, HiddenEffect, ::testing::ValuesIn(hidden_effect_cases()),
+    [](const ::testing::TestParamInfo<HiddenCase>& i) { return i.param.name; });

@@ -9,11 +9,13 @@
 //    stage and the first later_stage_fit_span seconds of each later stage are fitted.
 //  * Objective. Sum of squared time-domain residuals measured - simulated - offset over the fit
 //    samples; the offset (one constant per dataset, a sensor bias) is solved in closed form.
-//    Parameters are mapped to a unit box (log scale for scale parameters) and optimised by
-//    NLopt's BOBYQA (derivative-free). Base models first fit a short window (the first
-//    stick-slip cycles) from data-driven starting values (F_C ~ stage-1 mean, F_S ~ mean +
-//    amplitude/2), then the whole fit set; extensions start from the base optimum plus a few
-//    starting values of their own (residual spectrum against x for waviness, phase grids).
+//    Parameters are mapped to a unit box (log scale for scale parameters). Every fit starts on
+//    per-cycle / per-stage features (slip times, stick ramps, stage-2 block means, window mean
+//    and standard deviation; diagnose_features.h), fitted by Levenberg-Marquardt, then refines
+//    in the time domain with NLopt's BOBYQA. Extensions start from the base optimum plus
+//    starting values of their own (residual spectrum against x for waviness, phase grids), and
+//    the slip-acting ones (viscous, drive_damping, stribeck_shape, dwell_time) from profile
+//    starts: the base refitted on the features with the extension held at each starting size.
 //  * Uncertainty. Covariance s^2 (J^T J)^-1 from the finite-difference Jacobian of the
 //    residuals (Eigen), inflated by n / n_eff for correlated residuals.
 //  * Significance. Likelihood ratio n_eff ln(SSE_base / SSE_ext) ~ chi^2(k) with n_eff =
@@ -44,6 +46,7 @@ struct DiagnoseOptions {
   double rtol = 1e-5;                   ///< engine accuracy while fitting (rtol = atol [N])
   int max_evals_base = 70;              ///< objective evaluations per base model
   int max_evals_candidate = 45;         ///< objective evaluations per extension
+  int max_evals_profile = 12;           ///< per profile start (base refit at a fixed size)
   double alpha = 0.01;                  ///< family-wise significance level [-]
   double min_gain = 0.1;                ///< minimum held-out gain to name a cause [-]
   bool fit_offset = true;               ///< fit one constant sensor offset [N]

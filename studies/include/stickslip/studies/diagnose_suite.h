@@ -1,0 +1,60 @@
+#pragma once
+// The hidden-effect suite of issue 5, shared by the tests (tests/studies/test_diagnose.cpp) and
+// the confusion-table program (bench/diagnose_suite.cpp): synthetic LuGre datasets with one
+// catalogue effect hidden at a stated size (or none), and what the diagnosis must say.
+//
+// Dataset design (docs/diagnose.md "Hidden-effect suite"): every run starts with a still base
+// (stick-slip, t < t_on) and then vibrates at one v_a in {1.5, 3, 5} mm/s (f = 1500 Hz), so the
+// stage-2 level is seen against v_a. These conditions are not chaotic for LuGre (the chaotic
+// seed condition is v_a = 0.2 mm/s; see docs/diagnose.md). Base parameters are 5-10 % off
+// Table 1 (F_S x 1.06, F_C x 0.95, v_s x 0.92), the noise is white or AR(1), 0.02-0.05 N,
+// with a 0.1 N sensor offset.
+
+#include <cstdint>
+#include <ostream>
+#include <string>
+#include <vector>
+
+#include "stickslip/studies/diagnose.h"
+#include "stickslip/studies/synth.h"
+
+namespace stickslip::studies {
+
+struct HiddenCase {
+  std::string name;                          ///< e.g. "viscous", "clean_ar1", "small_drift"
+  ExtensionKind kind = ExtensionKind::kNone; ///< hidden effect (none for the null)
+  std::string param;                         ///< its size parameter (empty for the null)
+  double value = 0;                          ///< hidden size (SI)
+  double rel_tol = 0.3;                      ///< recovery tolerance of the size, relative [-]
+  bool small = false;   ///< too small to see: "none" or the right cause, never a wrong one
+  double noise = 0.03;  ///< [N]
+  double noise_rho = 0; ///< AR(1) coefficient [-]
+  /// Passes reliably (every seed) with the current method, so it runs in default CI; the others
+  /// fail today and run only with STICKSLIP_DIAGNOSE_SUITE (docs/diagnose.md "Status").
+  bool in_ci = false;
+};
+
+/// GoogleTest prints a case by its name (not as bytes) in test names and messages.
+inline void PrintTo(const HiddenCase& c, std::ostream* os) { *os << c.name; }
+
+/// Every catalogue effect at a moderate size, the nulls (white and AR(1) noise) and a few
+/// effects too small to see.
+std::vector<HiddenCase> hidden_effect_cases();
+
+/// The synthetic dataset of a case for a seed. full = false: the short CI datasets
+/// (2 runs x 4.5 s, t_on = 3 s, 1 kHz); full = true: 3 runs x 7 s, t_on = 4 s, at 2 kHz.
+SynthOptions hidden_case_dataset(const HiddenCase& c, std::uint64_t seed, bool full);
+
+/// Diagnosis options used by the suite: LuGre-only base in CI (full = false), every base model
+/// when full = true.
+DiagnoseOptions hidden_case_options(bool full);
+
+/// What the diagnosis said against what it had to say.
+struct HiddenVerdict {
+  bool cause_ok = false, gain_ok = false, param_ok = false;
+  double recovered = 0;  ///< fitted size parameter of the hidden effect's candidate (SI)
+  bool ok() const { return cause_ok && gain_ok && param_ok; }
+};
+HiddenVerdict judge(const HiddenCase& c, const Diagnosis& d);
+
+}  // namespace stickslip::studies
