@@ -55,12 +55,14 @@ for _ in $(seq 200); do [ -s "$WORK/port" ] && break; sleep 0.05; done
 URL="http://127.0.0.1:$(cat "$WORK/port")"
 
 # Many runs of the same cost (so runs/s is comparable between windows): the four models cycle
-# fastest, v_a/v_d = 1, k_d varies by +-1 % only; 2 x 2 s stages, adaptive integrator. 12,000
-# runs keep both cores busy through all windows (about 30 runs/s on this machine).
+# fastest, v_a/v_d = 1, k_d varies by +-1 % only; 2 x 2 s stages, adaptive integrator. 50,000
+# runs keep both cores busy through all windows (about 100 runs/s on this machine, idle, since
+# the faster adaptive event location; 12,000 ran out after two windows). A window that sees
+# the study finish is flagged below.
 cat >"$WORK/study.json" <<'JSON'
 {"name": "load", "stages": [{"duration": 2}, {"duration": 2, "f": 1500}],
  "design": {"type": "grid", "axes": [
-   {"name": "k_d", "linspace": [11600, 11800, 3000]},
+   {"name": "k_d", "linspace": [11600, 11800, 12500]},
    {"name": "va_over_vd", "values": [1]},
    {"name": "model", "values": ["dahl", "karnopp", "reset_integrator", "lugre"]}]}}
 JSON
