@@ -52,6 +52,7 @@ int main(int argc, char** argv) {
   std::string port_file;
   std::string log_level = "info";
   int read_timeout_s = 10, idle_timeout_s = 30;
+  long long min_poll_interval_ms = net.min_poll_interval.count();
   app.add_option("--db", db, "SQLite store (created if missing)")->capture_default_str();
   app.add_option("--bind", net.bind, "address to listen on")->capture_default_str();
   app.add_option("--port", net.port, "TCP port; 0 = an ephemeral port (see --port-file)")
@@ -76,6 +77,11 @@ int main(int argc, char** argv) {
   app.add_option("--io-slice-us", net.io_slice_us,
                  "scheduler slice of the HTTP threads [us] (Linux >= 6.12): shorter = lower "
                  "latency at the same share of the CPU; 0 = the kernel's default")
+      ->capture_default_str();
+  app.add_option("--min-poll-interval-ms", min_poll_interval_ms,
+                 "a GET repeated on the same connection within this time of the previous answer "
+                 "waits out the rest (0-10000 ms; 0 = no pacing): bounds what back-to-back "
+                 "pollers take from a running study")
       ->capture_default_str();
   app.add_option("--max-runs", api.limits.max_runs, "largest number of runs of one study")
       ->capture_default_str();
@@ -121,6 +127,7 @@ int main(int argc, char** argv) {
   diag.nice = work.nice;
   net.read_timeout = std::chrono::seconds(read_timeout_s);
   net.idle_timeout = std::chrono::seconds(idle_timeout_s);
+  net.min_poll_interval = std::chrono::milliseconds(min_poll_interval_ms);
   work.limits = api.limits;
 
   // Block the termination signals in every thread; the main thread takes them with sigwait.

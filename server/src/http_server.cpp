@@ -41,6 +41,9 @@ bool ServerOptions::IsValid(std::string* why) const {
   if (max_header_bytes < 1024) return fail("max_header_bytes: must be >= 1024");
   if (idle_timeout.count() <= 0 || read_timeout.count() <= 0 || write_timeout.count() <= 0)
     return fail("timeouts must be > 0");
+  if (min_poll_interval.count() < 0 || min_poll_interval.count() > 10000)
+    return fail("min_poll_interval: must be in [0, 10000] ms, got " +
+                std::to_string(min_poll_interval.count()));
   return true;
 }
 
@@ -222,6 +225,25 @@ class Session : public std::enable_shared_from_this<Session> {
     const bool keep_alive = req.keep_alive();
     stream_.expires_never();  // the handler pool may take a moment; the write sets its own
     Request request = to_request(req);
+    // Pacing (header comment): a repeated GET of the same target waits out min_poll_interval.
+    const auto now = std::chrono::steady_clock::now();
+    const bool repeat = request.method == "GET" && last_get_target_ == request.target;
+    if (request.method == "GET") last_get_target_ = request.target;
+    else last_get_target_.clear();
+    if (repeat && server_.options.min_poll_interval.count() > 0 &&
+        now < last_answer_ + server_.options.min_poll_interval) {
+      pace_timer_.expires_at(last_answer_ + server_.options.min_poll_interval);
+      pace_timer_.async_wait([self = shared_from_this(), request = std::move(request), version,
+                              keep_alive](beast::error_code ec) mutable {
+        if (ec) return self->close();
+        self->dispatch(std::move(request), version, keep_alive);
+      });
+      return;
+    }
+    dispatch(std::move(request), version, keep_alive);
+  }
+
+  void dispatch(Request request, unsigned version, bool keep_alive) {
     if (server_.options.handler_threads == 0) {  // inline on this I/O thread (no hand-off)
       return send(server_.handler(request), version, keep_alive);
     }
@@ -239,6 +261,7 @@ class Session : public std::enable_shared_from_this<Session> {
   }
 
   void send(const Response& resp, unsigned version, bool keep_alive) {
+    last_answer_ = std::chrono::steady_clock::now();
     response_ = to_beast(resp, version, keep_alive);
     stream_.expires_after(server_.options.write_timeout);
     http::async_write(stream_, response_,
@@ -260,6 +283,10 @@ class Session : public std::enable_shared_from_this<Session> {
   std::optional<http::request_parser<http::string_body>> parser_;
   std::size_t body_limit_ = 0;  // of the request being read
   http::response<http::string_body> response_;
+  // Pacing of repeated GETs (header comment).
+  asio::steady_timer pace_timer_{stream_.get_executor()};
+  std::string last_get_target_;
+  std::chrono::steady_clock::time_point last_answer_{};
 };
 
 }  // namespace

@@ -251,6 +251,47 @@ TEST(ServerOptions, InvalidOptionsNameTheField) {
   }
 }
 
+TEST(ServerOptions, MinPollIntervalIsBounded) {
+  ServerOptions o;
+  std::string why;
+  for (const auto bad : {-1ll, 10001ll}) {
+    o.min_poll_interval = std::chrono::milliseconds(bad);
+    EXPECT_FALSE(o.IsValid(&why)) << bad;
+    EXPECT_NE(why.find("min_poll_interval"), std::string::npos) << why;
+    EXPECT_NE(why.find("got " + std::to_string(bad)), std::string::npos) << why;
+  }
+  o.min_poll_interval = 0ms;
+  EXPECT_TRUE(o.IsValid(&why)) << why;
+}
+
+// Pacing is behaviour, checked with wide margins: a repeated GET of the same target on the same
+// connection is answered no sooner than min_poll_interval after the previous answer (a lower
+// bound, which load cannot break); another target, or the same one after the interval, is not
+// held back (upper bounds far above any normal answer time).
+TEST_F(TransportTest, RepeatedGetOnAConnectionIsPaced) {
+  ServerOptions net;
+  net.min_poll_interval = 1500ms;
+  start(net);
+  RawClient c(server_->port());
+  const auto get = [&c](const std::string& target) {
+    const auto t0 = std::chrono::steady_clock::now();
+    c.send("GET " + target + " HTTP/1.1\r\nHost: x\r\n\r\n");
+    const std::string r = c.read_response();
+    EXPECT_EQ(r.substr(0, 15), "HTTP/1.1 200 OK") << r.substr(0, 200);
+    return std::chrono::steady_clock::now() - t0;
+  };
+  get("/healthz");
+  EXPECT_GE(get("/healthz"), 1400ms) << "a repeat within the interval must wait it out";
+  EXPECT_LT(get("/v1/openapi.json"), 1200ms) << "another target is not paced";
+  std::this_thread::sleep_for(1600ms);
+  EXPECT_LT(get("/v1/openapi.json"), 1200ms) << "a repeat after the interval is not paced";
+  RawClient other(server_->port());  // pacing is per connection
+  const auto t0 = std::chrono::steady_clock::now();
+  other.send("GET /v1/openapi.json HTTP/1.1\r\nHost: x\r\n\r\n");
+  EXPECT_EQ(other.read_response().substr(0, 15), "HTTP/1.1 200 OK");
+  EXPECT_LT(std::chrono::steady_clock::now() - t0, 1200ms);
+}
+
 /// Nice values of this process's threads (/proc/self/task/TID/stat, field 19).
 std::vector<int> thread_nice_values() {
   std::vector<int> out;

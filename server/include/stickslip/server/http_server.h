@@ -24,7 +24,13 @@
 //    path_body_limits raises (or lowers) the body limit for exact request paths (the header is
 //    read first, then the body with the limit of its path), e.g. "/v1/diagnoses" -> 64 MiB;
 //    a request with "Expect: 100-continue" gets "100 Continue" once its header is accepted;
-//  - max_connections: connections beyond it get 503 immediately and are closed.
+//  - max_connections: connections beyond it get 503 immediately and are closed;
+//  - min_poll_interval: a GET for the same target on the same connection within this time of
+//    the previous answer to it waits out the rest of the interval before it is handled (no error,
+//    just later). Studies change at most once per study-cache period (100 ms), so a client that
+//    polls faster learns nothing new; pacing bounds what a back-to-back poller can take from a
+//    running study (50 connections x 1 / 20 ms = 2,500 answers/s at most) while any other
+//    request, and the first poll, is answered at once. 0 = no pacing.
 
 #include <chrono>
 #include <cstddef>
@@ -58,6 +64,7 @@ struct ServerOptions {
   std::chrono::milliseconds idle_timeout{30000};
   std::chrono::milliseconds read_timeout{10000};
   std::chrono::milliseconds write_timeout{30000};
+  std::chrono::milliseconds min_poll_interval{20};  ///< 0..10000; see the header comment
 
   bool IsValid(std::string* why) const;
 };
