@@ -70,7 +70,21 @@ int main(int argc, char** argv) {
       seconds += d.seconds;
       std::printf("%-24s %4d %-24s %7.3f %11.4g %11.4g %6.1f %5s\n", c.name.c_str(), s,
                   d.cause.c_str(), d.gain, c.value, v.recovered, d.seconds, v.ok() ? "yes" : "NO");
-      if (verbose) std::printf("%s(%d model evaluations)\n", summary_text(d).c_str(), d.evaluations);
+      if (verbose) {
+        std::printf("%s(%d model evaluations)\n", summary_text(d).c_str(), d.evaluations);
+        // Refitted base parameters, fit RMSE and LR of every candidate: where a fit went.
+        for (const auto& cand : d.candidates) {
+          std::printf("  %-24s fit %.4f lr %.1f p %.2g |", to_string(cand.kind), cand.rmse_fit,
+                      cand.lr, cand.p_value);
+          for (const auto& p : cand.base_params) std::printf(" %s=%.4g", p.name.c_str(), p.value);
+          for (const auto& p : cand.params) std::printf(" %s=%.4g", p.name.c_str(), p.value);
+          std::printf("\n");
+        }
+        for (const auto& cal : d.calibrations)
+          if (cal.model == d.base_model)
+            std::printf("  base fit %.4f held-out %.4f rho %.3f n %.0f n_eff %.0f\n", cal.rmse_fit,
+                        cal.rmse_heldout, d.evidence.rho, d.evidence.n, d.evidence.n_eff);
+      }
       std::fflush(stdout);
     }
   }
