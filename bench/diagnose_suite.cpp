@@ -21,7 +21,7 @@ using namespace stickslip::studies;
 
 int main(int argc, char** argv) {
   bool full = false, verbose = false;
-  int seeds = 3;
+  int seeds = 3, first = 0;  // seeds 1000 + first ... 1000 + first + seeds - 1
   std::vector<std::string> only;
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--full")) full = true;
@@ -42,9 +42,10 @@ int main(int argc, char** argv) {
       return 0;
     }
     else if (!std::strcmp(argv[i], "--seeds") && i + 1 < argc) seeds = std::atoi(argv[++i]);
+    else if (!std::strcmp(argv[i], "--first-seed") && i + 1 < argc) first = std::atoi(argv[++i]);
     else if (!std::strcmp(argv[i], "--case") && i + 1 < argc) only.push_back(argv[++i]);
     else {
-      std::fprintf(stderr, "usage: diagnose_suite [--full] [--verbose] [--seeds N] [--case NAME]...\n");
+      std::fprintf(stderr, "usage: diagnose_suite [--full] [--verbose] [--seeds N] [--first-seed K] [--case NAME]...\n");
       return 2;
     }
   }
@@ -60,7 +61,7 @@ int main(int argc, char** argv) {
   for (const auto& c : cases) {
     if (!only.empty() && std::find(only.begin(), only.end(), c.name) == only.end()) continue;
     rows.push_back(c.name);
-    for (int s = 0; s < seeds; ++s) {
+    for (int s = first; s < first + seeds; ++s) {
       const Diagnosis d = diagnose(synthesize(hidden_case_dataset(c, 1000 + s, full)),
                                    hidden_case_options(full));
       const HiddenVerdict v = judge(c, d);
