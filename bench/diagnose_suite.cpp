@@ -21,7 +21,7 @@ using namespace stickslip::studies;
 
 int main(int argc, char** argv) {
   bool full = false, verbose = false;
-  int seeds = 3;
+  int seeds = 3, first = 0;  // seeds 1000 + first ... 1000 + first + seeds - 1
   std::vector<std::string> only;
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--full")) full = true;
@@ -42,9 +42,10 @@ int main(int argc, char** argv) {
       return 0;
     }
     else if (!std::strcmp(argv[i], "--seeds") && i + 1 < argc) seeds = std::atoi(argv[++i]);
+    else if (!std::strcmp(argv[i], "--first-seed") && i + 1 < argc) first = std::atoi(argv[++i]);
     else if (!std::strcmp(argv[i], "--case") && i + 1 < argc) only.push_back(argv[++i]);
     else {
-      std::fprintf(stderr, "usage: diagnose_suite [--full] [--verbose] [--seeds N] [--case NAME]...\n");
+      std::fprintf(stderr, "usage: diagnose_suite [--full] [--verbose] [--seeds N] [--first-seed K] [--case NAME]...\n");
       return 2;
     }
   }
@@ -60,7 +61,7 @@ int main(int argc, char** argv) {
   for (const auto& c : cases) {
     if (!only.empty() && std::find(only.begin(), only.end(), c.name) == only.end()) continue;
     rows.push_back(c.name);
-    for (int s = 0; s < seeds; ++s) {
+    for (int s = first; s < first + seeds; ++s) {
       const Diagnosis d = diagnose(synthesize(hidden_case_dataset(c, 1000 + s, full)),
                                    hidden_case_options(full));
       const HiddenVerdict v = judge(c, d);
@@ -70,7 +71,21 @@ int main(int argc, char** argv) {
       seconds += d.seconds;
       std::printf("%-24s %4d %-24s %7.3f %11.4g %11.4g %6.1f %5s\n", c.name.c_str(), s,
                   d.cause.c_str(), d.gain, c.value, v.recovered, d.seconds, v.ok() ? "yes" : "NO");
-      if (verbose) std::printf("%s(%d model evaluations)\n", summary_text(d).c_str(), d.evaluations);
+      if (verbose) {
+        std::printf("%s(%d model evaluations)\n", summary_text(d).c_str(), d.evaluations);
+        // Refitted base parameters, fit RMSE and LR of every candidate: where a fit went.
+        for (const auto& cand : d.candidates) {
+          std::printf("  %-24s fit %.4f lr %.1f p %.2g |", to_string(cand.kind), cand.rmse_fit,
+                      cand.lr, cand.p_value);
+          for (const auto& p : cand.base_params) std::printf(" %s=%.4g", p.name.c_str(), p.value);
+          for (const auto& p : cand.params) std::printf(" %s=%.4g", p.name.c_str(), p.value);
+          std::printf("\n");
+        }
+        for (const auto& cal : d.calibrations)
+          if (cal.model == d.base_model)
+            std::printf("  base fit %.4f held-out %.4f rho %.3f n %.0f n_eff %.0f\n", cal.rmse_fit,
+                        cal.rmse_heldout, d.evidence.rho, d.evidence.n, d.evidence.n_eff);
+      }
       std::fflush(stdout);
     }
   }

@@ -31,7 +31,7 @@ std::vector<HiddenCase> hidden_effect_cases() {
   // Measured with bench/diagnose_suite (docs/diagnose.md): these pass on every seed today.
   for (auto& k : c)
     k.in_ci = k.name == "dwell_time" || k.name == "drift" || k.name == "clean_white" ||
-              k.name == "small_viscous";
+              k.name == "small_viscous" || k.name == "drive_damping";
   return c;
 }
 

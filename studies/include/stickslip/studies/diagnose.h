@@ -15,14 +15,17 @@
 //    in the time domain with NLopt's BOBYQA. Extensions start from the base optimum plus
 //    starting values of their own (residual spectrum against x for waviness, phase grids), and
 //    the slip-acting ones (viscous, drive_damping, stribeck_shape, dwell_time) from profile
-//    starts: the base refitted on the features with the extension held at each starting size.
+//    starts: the base refitted on the features with the extension held at each starting size
+//    (viscous and drive_damping also with v_s held at its nominal value, then freed).
 //  * Uncertainty. Covariance s^2 (J^T J)^-1 from the finite-difference Jacobian of the
 //    residuals (Eigen), inflated by n / n_eff for correlated residuals.
 //  * Significance. Likelihood ratio n_eff ln(SSE_base / SSE_ext) ~ chi^2(k) with n_eff =
 //    n (1 - rho) / (1 + rho) from the AR(1) coefficient rho of the base residuals; Holm's
 //    correction over the candidates; and a minimum effect size: held-out gain >= min_gain.
 //    A significant candidate also triggers a base-only refit from its base parameters, so an
-//    extension never wins only because the base optimisation had stopped early.
+//    extension never wins only because the base optimisation had stopped early. Among the
+//    significant candidates the cause is the one with the lowest n_eff ln(SSE/n) + 2 k on the
+//    fit set (base n_eff for all).
 
 #include <filesystem>
 #include <nlohmann/json.hpp>
