@@ -72,7 +72,7 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--io-nice", net.io_nice,
                  "nice increment (0-19) of the HTTP I/O and handler threads over the process's "
-                 "nice, so that a flood of requests cannot take the cores from a study")
+                 "nice; > 0 favours a running study over API latency")
       ->capture_default_str();
   app.add_option("--io-slice-us", net.io_slice_us,
                  "scheduler slice of the HTTP threads [us] (Linux >= 6.12): shorter = lower "
