@@ -155,20 +155,11 @@ Response Api::list_diagnoses(const Request& r) const {
   const auto page_size =
       detail::page_size_param(r, options_.default_page_size, options_.max_page_size, &error);
   if (!page_size) return error;
-  const auto q = r.query();
-  std::string after;
-  if (const auto t = q.find("page_token"); t != q.end()) {
-    if (!detail::is_valid_id(t->second)) {
-      return problem(400, "invalid-parameter", "Invalid query parameter",
-                     "page_token is not a token returned by this endpoint",
-                     {FieldError::query("page_token", "not a token from next_page_token")},
-                     r.path());
-    }
-    after = t->second;
-  }
+  const auto after = detail::id_page_token_param(r, &error);
+  if (!after) return error;
   try {
     auto store = pool_.acquire();
-    auto rows = store->list_diagnoses(*page_size + 1, after);
+    auto rows = store->list_diagnoses(*page_size + 1, *after);
     const bool more = rows.size() > *page_size;
     if (more) rows.pop_back();
     json out = {{"diagnoses", json::array()}};

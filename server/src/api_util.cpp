@@ -56,6 +56,20 @@ Response not_acceptable(const Request& r, bool csv_allowed) {
                  r.path());
 }
 
+std::optional<std::string> id_page_token_param(const Request& r, Response* error) {
+  const auto q = r.query();
+  const auto t = q.find("page_token");
+  if (t == q.end()) return std::string();
+  if (!is_valid_id(t->second)) {
+    *error = problem(400, "invalid-parameter", "Invalid query parameter",
+                     "page_token is not a token returned by this endpoint",
+                     {FieldError::query("page_token", "not a token from next_page_token")},
+                     r.path());
+    return std::nullopt;
+  }
+  return t->second;
+}
+
 std::optional<std::size_t> page_size_param(const Request& r, std::size_t fallback,
                                            std::size_t max, Response* error) {
   const auto q = r.query();

@@ -25,6 +25,10 @@ Response not_acceptable(const Request& r, bool csv_allowed);
 std::optional<std::size_t> page_size_param(const Request& r, std::size_t fallback,
                                            std::size_t max, Response* error);
 
+/// The optional page_token of a list keyed by id (studies, diagnoses): the id to list after, ""
+/// when absent; nullopt with the 400 problem in *error when it is not an id.
+std::optional<std::string> id_page_token_param(const Request& r, Response* error);
+
 /// Ids of studies and diagnoses: 1 to 128 of [A-Za-z0-9._-].
 bool is_valid_id(const std::string& id);
 /// Content-Type application/json (parameters such as charset ignored).

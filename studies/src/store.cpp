@@ -821,19 +821,32 @@ std::vector<StudyRecord> Store::list_studies(std::size_t page_size, const std::s
   return out;
 }
 
-void Store::set_study_state(const std::string& id, StudyState state,
-                            const std::optional<std::string>& error) {
-  Statement st(impl_->conn,
-               "UPDATE studies SET state = ?1, error = ?2, "
-               "started_at = CASE WHEN ?1 = 'running' THEN COALESCE(started_at, ?3) "
-               "                  ELSE started_at END, "
-               "finished_at = CASE WHEN ?1 IN ('succeeded', 'failed', 'cancelled') THEN ?3 "
-               "                   ELSE NULL END "
-               "WHERE id = ?4",
-               "setting the state of study " + id);
+namespace {
+// One state-transition rule for both kinds of job (studies, diagnoses): started_at is set on
+// the first 'running', finished_at on a terminal state and cleared otherwise. table is one of
+// the two fixed table names; kind names the job in errors.
+void set_job_state(const Connection& conn, const char* table, const char* kind,
+                   const std::string& id, StudyState state,
+                   const std::optional<std::string>& error) {
+  const std::string sql =
+      std::string("UPDATE ") + table +
+      " SET state = ?1, error = ?2, "
+      "started_at = CASE WHEN ?1 = 'running' THEN COALESCE(started_at, ?3) "
+      "                  ELSE started_at END, "
+      "finished_at = CASE WHEN ?1 IN ('succeeded', 'failed', 'cancelled') THEN ?3 "
+      "                   ELSE NULL END "
+      "WHERE id = ?4";
+  const std::string doing = std::string("setting the state of ") + kind + " " + id;
+  Statement st(conn, sql.c_str(), doing);
   st.bind_text(1, to_string(state)).bind_opt_text(2, error).bind_text(3, utc_now_iso8601());
   st.bind_text(4, id).run();
-  if (impl_->conn.changes() == 0) fail(path(), "setting the state of study " + id + ": no such study");
+  if (conn.changes() == 0) fail(conn.path(), doing + ": no such " + kind);
+}
+}  // namespace
+
+void Store::set_study_state(const std::string& id, StudyState state,
+                            const std::optional<std::string>& error) {
+  set_job_state(impl_->conn, "studies", "study", id, state, error);
 }
 
 std::vector<std::int64_t> Store::completed_design_indices(const std::string& study_id) {
@@ -985,18 +998,7 @@ std::vector<DiagnosisRecord> Store::list_diagnoses(std::size_t page_size,
 
 void Store::set_diagnosis_state(const std::string& id, StudyState state,
                                 const std::optional<std::string>& error) {
-  Statement st(impl_->conn,
-               "UPDATE diagnoses SET state = ?1, error = ?2, "
-               "started_at = CASE WHEN ?1 = 'running' THEN COALESCE(started_at, ?3) "
-               "                  ELSE started_at END, "
-               "finished_at = CASE WHEN ?1 IN ('succeeded', 'failed', 'cancelled') THEN ?3 "
-               "                   ELSE NULL END "
-               "WHERE id = ?4",
-               "setting the state of diagnosis " + id);
-  st.bind_text(1, to_string(state)).bind_opt_text(2, error).bind_text(3, utc_now_iso8601());
-  st.bind_text(4, id).run();
-  if (impl_->conn.changes() == 0)
-    fail(path(), "setting the state of diagnosis " + id + ": no such diagnosis");
+  set_job_state(impl_->conn, "diagnoses", "diagnosis", id, state, error);
 }
 
 bool Store::requeue_diagnosis(const std::string& id) {

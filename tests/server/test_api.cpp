@@ -304,16 +304,19 @@ studies::RunRecord make_run(const std::string& study, std::int64_t index, const 
   return r;
 }
 
+// Runs 0 (dahl, ok), 1 (dahl, diverged) and 3 (lugre, ok) of a tiny_study(); run 2 missing.
+void store_three_runs(const std::filesystem::path& db, const std::string& id) {
+  auto writer = studies::RunWriter::open(db);
+  writer.add(make_run(id, 0, "dahl", 0));
+  writer.add(make_run(id, 1, "dahl", 2, "diverged"));
+  writer.add(make_run(id, 3, "lugre", 2));
+  writer.flush();
+}
+
 TEST_F(ApiTest, RunsArePagedAsJsonAndServedAsCsv) {
   Api api(options());
   const std::string id = body_json(api.handle(post_json("/v1/studies", tiny_study())))["id"];
-  {
-    auto writer = studies::RunWriter::open(dir_ / "api.db");
-    writer.add(make_run(id, 0, "dahl", 0));
-    writer.add(make_run(id, 1, "dahl", 2, "diverged"));
-    writer.add(make_run(id, 3, "lugre", 2));
-    writer.flush();
-  }
+  store_three_runs(dir_ / "api.db", id);
   const Response p1 = api.handle(get("/v1/studies/" + id + "/runs?page_size=2"));
   ASSERT_EQ(p1.status, 200) << p1.body;
   const json j1 = body_json(p1);
@@ -347,13 +350,7 @@ TEST_F(ApiTest, RunsArePagedAsJsonAndServedAsCsv) {
 TEST_F(ApiTest, MapIsTheStudiesMapAndMarksMissingAndFailedCells) {
   Api api(options());
   const std::string id = body_json(api.handle(post_json("/v1/studies", tiny_study())))["id"];
-  {
-    auto writer = studies::RunWriter::open(dir_ / "api.db");
-    writer.add(make_run(id, 0, "dahl", 0));
-    writer.add(make_run(id, 1, "dahl", 2, "diverged"));
-    writer.add(make_run(id, 3, "lugre", 2));
-    writer.flush();
-  }
+  store_three_runs(dir_ / "api.db", id);
   const Response r = api.handle(get("/v1/studies/" + id + "/map"));
   ASSERT_EQ(r.status, 200) << r.body;
   const json m = body_json(r);
