@@ -130,7 +130,7 @@ LEFT JOIN runs AS r ON r.study_id = s.id
 GROUP BY s.id;
 )sql";
 
-// Added in schema version 2 (a version-1 database gets it by migrate_to_2 on its first
+// Added in schema version 2 (a version-1 database gets it by migrate_step on its first
 // read-write open). A diagnosis is one job: the request (manifest + CSV contents) in, the
 // diagnosis.json document out.
 constexpr const char* kDiagnosesSql = R"sql(
@@ -149,6 +149,51 @@ CREATE TABLE diagnoses (
   idempotency_key TEXT UNIQUE
 );
 CREATE INDEX diagnoses_state ON diagnoses (state);
+)sql";
+
+// Added in schema version 3 (a version-2 database gets it by migrate_to_3; a new database runs
+// the same statements, so a migrated file and a new one have the same schema). Each study row
+// carries its run counters, kept by triggers in the transaction that writes or removes a run, so
+// that v_study_progress (polled by every GET /v1/studies/{id}) reads one row instead of
+// scanning all the study's runs: 1.9 ms for 3072 runs, growing linearly, with the version-2
+// aggregate view (measured 2026-11-22).
+constexpr const char* kRunCountersSql = R"sql(
+ALTER TABLE studies ADD COLUMN runs_done INTEGER NOT NULL DEFAULT 0 CHECK (runs_done >= 0);
+ALTER TABLE studies ADD COLUMN runs_ok INTEGER NOT NULL DEFAULT 0 CHECK (runs_ok >= 0);
+ALTER TABLE studies ADD COLUMN runs_failed INTEGER NOT NULL DEFAULT 0 CHECK (runs_failed >= 0);
+UPDATE studies SET
+  runs_done = (SELECT COUNT(*) FROM runs WHERE runs.study_id = studies.id),
+  runs_ok = (SELECT COUNT(*) FROM runs WHERE runs.study_id = studies.id AND runs.status = 'ok'),
+  runs_failed = (SELECT COUNT(*) FROM runs WHERE runs.study_id = studies.id AND runs.status <> 'ok');
+
+CREATE TRIGGER runs_count_insert AFTER INSERT ON runs BEGIN
+  UPDATE studies SET runs_done = runs_done + 1,
+                     runs_ok = runs_ok + (NEW.status = 'ok'),
+                     runs_failed = runs_failed + (NEW.status <> 'ok')
+  WHERE id = NEW.study_id;
+END;
+CREATE TRIGGER runs_count_delete AFTER DELETE ON runs BEGIN
+  UPDATE studies SET runs_done = runs_done - 1,
+                     runs_ok = runs_ok - (OLD.status = 'ok'),
+                     runs_failed = runs_failed - (OLD.status <> 'ok')
+  WHERE id = OLD.study_id;
+END;
+CREATE TRIGGER runs_count_update AFTER UPDATE OF study_id, status ON runs BEGIN
+  UPDATE studies SET runs_done = runs_done - 1,
+                     runs_ok = runs_ok - (OLD.status = 'ok'),
+                     runs_failed = runs_failed - (OLD.status <> 'ok')
+  WHERE id = OLD.study_id;
+  UPDATE studies SET runs_done = runs_done + 1,
+                     runs_ok = runs_ok + (NEW.status = 'ok'),
+                     runs_failed = runs_failed + (NEW.status <> 'ok')
+  WHERE id = NEW.study_id;
+END;
+
+DROP VIEW v_study_progress;
+CREATE VIEW v_study_progress AS
+SELECT id AS study_id, state, total_runs AS total, runs_done AS done, runs_ok AS ok,
+       runs_failed AS failed
+FROM studies;
 )sql";
 
 // ---------------------------------------------------------------------------------------------
@@ -425,40 +470,51 @@ std::string read_schema_version(const Connection& conn) {
   return st.text(0);
 }
 
-/// Version 1 -> 2: adds the diagnoses table; every existing table and row is kept as it is.
-/// Re-checks the version inside the write transaction, so two processes opening the same
-/// version-1 file at once migrate it once.
-void migrate_to_2(const Connection& conn) {
-  Transaction tx(conn, Transaction::Kind::kWrite, "migrating the schema from version 1 to 2");
-  if (read_schema_version(conn) == "1") {
-    conn.exec(kDiagnosesSql, "creating the diagnoses table (schema version 2)");
-    conn.exec("UPDATE meta SET value = '2' WHERE key = 'schema_version'",
-              "writing meta.schema_version = 2");
+/// One migration step from version `from` to from + 1 in one write transaction. Re-checks the
+/// version inside the transaction, so two processes opening the same old file at once migrate
+/// it once. Every existing table and row is kept as it is.
+///  1 -> 2: adds the diagnoses table.
+///  2 -> 3: adds the run counters of each study (filled from its runs), their triggers, and
+///          v_study_progress reading them.
+void migrate_step(const Connection& conn, int from) {
+  const std::string doing = "migrating the schema from version " + std::to_string(from) +
+                            " to " + std::to_string(from + 1);
+  Transaction tx(conn, Transaction::Kind::kWrite, doing);
+  if (read_schema_version(conn) == std::to_string(from)) {
+    if (from == 1) conn.exec(kDiagnosesSql, "creating the diagnoses table (schema version 2)");
+    else conn.exec(kRunCountersSql, "adding the run counters (schema version 3)");
+    conn.exec(("UPDATE meta SET value = '" + std::to_string(from + 1) +
+               "' WHERE key = 'schema_version'").c_str(),
+              "writing meta.schema_version");
     Statement st(conn, "INSERT OR REPLACE INTO meta (key, value) VALUES ('migrated_at', ?1)",
                  "writing meta.migrated_at");
     st.bind_text(1, utc_now_iso8601()).run();
   }
-  tx.commit("the schema migration to version 2");
+  tx.commit("the schema " + doing.substr(std::string("migrating the schema ").size()));
 }
 
-/// Accepts this build's version; a read-write open migrates a version-1 database (see
-/// migrate_to_2), a read-only open reads it as it is (studies and runs only).
+/// Accepts this build's version; a read-write open migrates an older database step by step
+/// (see migrate_step), a read-only open reads it as it is (version 1: studies and runs only;
+/// versions 1 and 2 count runs with their aggregate view).
 void require_schema_version(const Connection& conn, Store::Mode mode) {
   std::string value = read_schema_version(conn);
-  if (value == "1" && mode != Store::Mode::kReadOnly) {
-    migrate_to_2(conn);
+  for (int from = 1; from < kStoreSchemaVersion; ++from) {
+    if (value != std::to_string(from)) continue;
+    if (mode == Store::Mode::kReadOnly) return;
+    migrate_step(conn, from);
     value = read_schema_version(conn);
   }
-  if (value != std::to_string(kStoreSchemaVersion) &&
-      !(value == "1" && mode == Store::Mode::kReadOnly))
+  if (value != std::to_string(kStoreSchemaVersion))
     fail(conn.path(), "stickslip schema_version " + value + " is not supported by this build "
                           "(it reads version " + std::to_string(kStoreSchemaVersion) +
-                          ", and migrates version 1)");
+                          ", and migrates versions 1 to " +
+                          std::to_string(kStoreSchemaVersion - 1) + ")");
 }
 
 void write_schema(const Connection& conn) {
   conn.exec(kSchemaSql, "creating the schema");
   conn.exec(kDiagnosesSql, "creating the diagnoses table");
+  conn.exec(kRunCountersSql, "adding the run counters");
   conn.exec(("PRAGMA application_id = " + std::to_string(kStoreApplicationId)).c_str(),
             "setting the application_id");
   Statement ins(conn, "INSERT INTO meta (key, value) VALUES (?1, ?2)", "writing meta");

@@ -723,6 +723,63 @@ TEST_F(StoreTest, ReAddingARunNeverDuplicatesIt) {
   EXPECT_EQ(raw.integer("SELECT count(*) FROM traces"), 3);  // indices 0, 4, 8
 }
 
+// The run counters of each study (schema version 3) are kept by triggers, so they agree with
+// the runs table after every kind of change: batched inserts, duplicates and rejected runs,
+// an edited status, deleted runs, and a deleted study.
+TEST_F(StoreTest, RunCountersFollowEveryChangeOfTheRuns) {
+  const std::string a = make_study(20);
+  const std::string b = make_study(5);
+  RawDb raw(db_);
+  const auto expect_counts_match_runs = [&](const std::string& study, const char* when) {
+    auto store = Store::open(db_, Store::Mode::kReadOnly);
+    const auto c = store.count_runs(study);
+    const std::string where = " FROM runs WHERE study_id = '" + study + "'";
+    EXPECT_EQ(c.done, raw.integer("SELECT count(*)" + where)) << when;
+    EXPECT_EQ(c.ok, raw.integer("SELECT count(*)" + where + " AND status = 'ok'")) << when;
+    EXPECT_EQ(c.failed, raw.integer("SELECT count(*)" + where + " AND status <> 'ok'")) << when;
+    EXPECT_EQ(c.done, c.ok + c.failed) << when;
+    return c;
+  };
+  {
+    auto writer = RunWriter::open(db_, WriterOptions{.max_batch = 4, .max_delay = 1h});
+    for (std::int64_t i = 0; i < 10; ++i) {
+      RunRecord r = simple_run(a, i);
+      if (i % 3 == 0) {
+        r.status = "diverged";
+        r.error = "t = 1 s: |x| > 1 m";
+      }
+      writer.add(r);
+    }
+    writer.add(simple_run(b, 0));
+    writer.flush();
+  }
+  auto c = expect_counts_match_runs(a, "after the first batches");
+  EXPECT_EQ(c.done, 10);
+  EXPECT_EQ(c.failed, 4);  // 0, 3, 6, 9
+  EXPECT_EQ(expect_counts_match_runs(b, "other study").done, 1);
+  {
+    // Duplicates and a run left out for another param_hash change nothing.
+    auto writer = RunWriter::open(db_);
+    writer.add(simple_run(a, 1));
+    writer.add(simple_run(a, 2, "0123456789abcdef"));
+    writer.add(simple_run(a, 10));
+    EXPECT_THROW(writer.flush(), StoreError);
+  }
+  c = expect_counts_match_runs(a, "after duplicates and a conflict");
+  EXPECT_EQ(c.done, 11);
+  raw.exec("UPDATE runs SET status = 'invalid' WHERE study_id = '" + a + "' AND design_index = 1");
+  EXPECT_EQ(expect_counts_match_runs(a, "after a status edit").failed, 5);
+  raw.exec("DELETE FROM runs WHERE study_id = '" + a + "' AND design_index IN (0, 2)");
+  c = expect_counts_match_runs(a, "after deleting two runs");
+  EXPECT_EQ(c.done, 9);
+  EXPECT_EQ(c.failed, 4);
+  raw.exec("PRAGMA foreign_keys = ON");
+  raw.exec("DELETE FROM studies WHERE id = '" + a + "'");  // cascades to its runs
+  EXPECT_EQ(raw.integer("SELECT count(*) FROM runs WHERE study_id = '" + a + "'"), 0);
+  EXPECT_EQ(expect_counts_match_runs(b, "after deleting the other study").done, 1);
+  EXPECT_EQ(raw.text("PRAGMA integrity_check"), "ok");
+}
+
 TEST_F(StoreTest, ParamHashMismatchAndUnknownStudyAreReportedOthersCommitted) {
   const std::string study = make_study(10);
   auto writer = RunWriter::open(db_);

@@ -81,7 +81,8 @@ TEST_F(StoreDiagnoses, Version1DatabaseIsMigratedAndKeepsEverything) {
     EXPECT_TRUE(created.created);
     EXPECT_EQ(store.get_diagnosis(created.diagnosis.id)->name, "after-migration");
   }
-  EXPECT_EQ(query_text(db, "SELECT value FROM meta WHERE key = 'schema_version'"), "2");
+  EXPECT_EQ(query_text(db, "SELECT value FROM meta WHERE key = 'schema_version'"),
+            std::to_string(kStoreSchemaVersion));  // 1 -> 2 -> 3 in one open
   EXPECT_NE(query_text(db, "SELECT value FROM meta WHERE key = 'migrated_at'"), "<no row>");
   EXPECT_EQ(query_text(db, "SELECT group_concat(design_index || ':' || param_hash || ':' || "
                            "quote(rmse) || ':' || status, ';') FROM (SELECT * FROM runs ORDER BY "
@@ -106,6 +107,59 @@ TEST_F(StoreDiagnoses, ReadOnlyOpenOfVersion1ReadsStudiesAndChangesNothing) {
     EXPECT_THROW(store.list_diagnoses(10), StoreError);  // no table until a read-write open
   }
   EXPECT_EQ(file_bytes(db), before);
+}
+
+// tests/data/store_v2.db: made by the version-2 build (commit d573fe6, `stickslip study run
+// tests/data/store_v2.spec.json --db store_v2.db`): one succeeded study of 4 runs, 2 of them
+// invalid (F_C = 12 N > F_S). Version 3 adds the run counters, filled from the runs.
+TEST_F(StoreDiagnoses, Version2DatabaseGetsRunCountersFilledFromItsRuns) {
+  const fs::path db = tmp_ / "v2.db";
+  fs::copy_file(fs::path(STICKSLIP_SOURCE_DIR) / "tests/data/store_v2.db", db);
+  ASSERT_EQ(query_text(db, "SELECT value FROM meta WHERE key = 'schema_version'"), "2");
+  const std::string runs_sql =
+      "SELECT group_concat(design_index || ':' || param_hash || ':' || quote(rmse) || ':' || "
+      "status, ';') FROM (SELECT * FROM runs ORDER BY design_index)";
+  const std::string runs_before = query_text(db, runs_sql);
+  {
+    // Read-only: read as it is, counted by the version-2 aggregate view, file unchanged.
+    const std::string bytes = file_bytes(db);
+    auto ro = Store::open(db, Store::Mode::kReadOnly);
+    const auto studies = ro.list_studies(10);
+    ASSERT_EQ(studies.size(), 1u);
+    const auto c = ro.count_runs(studies[0].id);
+    EXPECT_EQ(c.done, 4);
+    EXPECT_EQ(c.failed, 2);
+    EXPECT_EQ(file_bytes(db), bytes);
+  }
+  std::string id;
+  {
+    auto store = Store::open(db);
+    const auto studies = store.list_studies(10);
+    ASSERT_EQ(studies.size(), 1u);
+    id = studies[0].id;
+    const auto c = store.count_runs(id);
+    EXPECT_EQ(c.total, 4);
+    EXPECT_EQ(c.done, 4);
+    EXPECT_EQ(c.ok, 2);
+    EXPECT_EQ(c.failed, 2);
+  }
+  EXPECT_EQ(query_text(db, "SELECT value FROM meta WHERE key = 'schema_version'"), "3");
+  EXPECT_EQ(query_text(db, "SELECT runs_done || '/' || runs_ok || '/' || runs_failed FROM studies"),
+            "4/2/2");
+  EXPECT_EQ(query_text(db, "SELECT count(*) FROM sqlite_master WHERE type = 'trigger'"), "3");
+  EXPECT_EQ(query_text(db, runs_sql), runs_before);
+  EXPECT_EQ(query_text(db, "PRAGMA integrity_check"), "ok");
+  // A migrated file and a new one have the same tables, columns, views and triggers.
+  const fs::path fresh = tmp_ / "fresh.db";
+  { auto store = Store::open(fresh); }
+  const std::string schema_sql =
+      "SELECT group_concat(type || ' ' || name, ', ') FROM (SELECT type, name FROM sqlite_master "
+      "ORDER BY type, name)";
+  EXPECT_EQ(query_text(db, schema_sql), query_text(fresh, schema_sql));
+  const std::string columns_sql =
+      "SELECT group_concat(name || ' ' || type || ' ' || \"notnull\" || ' ' || "
+      "quote(dflt_value), ', ') FROM pragma_table_info('studies')";
+  EXPECT_EQ(query_text(db, columns_sql), query_text(fresh, columns_sql));
 }
 
 TEST_F(StoreDiagnoses, CreateStateFinishAndCancelRules) {

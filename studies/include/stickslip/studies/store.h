@@ -45,10 +45,11 @@ class StoreError : public std::runtime_error {
 
 /// PRAGMA application_id of a stickslip database: "SSLP" = 0x53534C50.
 inline constexpr std::int32_t kStoreApplicationId = 0x53534C50;
-/// meta.schema_version written by this build. Version 2 added the diagnoses table; a version-1
-/// database is migrated to 2 on its first read-write open (nothing in it changes but the added
-/// table and meta rows), and read as it is by a read-only open.
-inline constexpr int kStoreSchemaVersion = 2;
+/// meta.schema_version written by this build. Version 2 added the diagnoses table, version 3 the
+/// run counters of each study (kept by triggers; v_study_progress reads them). An older database
+/// is migrated step by step on its first read-write open (nothing in it changes but the added
+/// tables, columns, triggers and meta rows), and read as it is by a read-only open.
+inline constexpr int kStoreSchemaVersion = 3;
 
 /// 64-bit FNV-1a of the bytes of canonical_json as 16 lowercase hex digits.
 /// Hand-written on purpose: SQLite has no hash function, and a parameter fingerprint needs no
