@@ -503,8 +503,8 @@ void run_adaptive(RunContext& ctx) {
       break;
     }
     case ModelKind::kLuGre: {
-      const LuGre m(fp);
-      adaptive(ctx, SmoothSys<LuGre>{m}, ErrorScale{c.drive.k_d, z_contact, fp.k_t, inv_tol});
+      const ScalarLuGre m(fp);
+      adaptive(ctx, SmoothSys<ScalarLuGre>{m}, ErrorScale{c.drive.k_d, z_contact, fp.k_t, inv_tol});
       break;
     }
     case ModelKind::kKarnopp: {
