@@ -150,7 +150,7 @@ void run_rk4(RunContext& ctx) {
     case ModelKind::kDahl: rk4_plain(ctx, Dahl(fp), y); break;
     case ModelKind::kKarnopp: rk4_plain(ctx, Karnopp(fp), y); break;
     case ModelKind::kResetIntegrator: rk4_plain(ctx, ResetIntegrator(fp), y); break;
-    case ModelKind::kLuGre: rk4_plain(ctx, LuGre(fp), y); break;
+    case ModelKind::kLuGre: rk4_plain(ctx, ScalarLuGre(fp), y); break;
   }
 }
 
@@ -161,7 +161,7 @@ void run_rk4_event(RunContext& ctx) {
     case ModelKind::kDahl: rk4_plain(ctx, Dahl(fp), y); break;
     case ModelKind::kKarnopp: rk4_event(ctx, KarnoppHybrid{Karnopp(fp), ctx.cfg.drive.m}, y); break;
     case ModelKind::kResetIntegrator: rk4_event(ctx, ResetHybrid{ResetIntegrator(fp)}, y); break;
-    case ModelKind::kLuGre: rk4_plain(ctx, LuGre(fp), y); break;
+    case ModelKind::kLuGre: rk4_plain(ctx, ScalarLuGre(fp), y); break;
   }
 }
 

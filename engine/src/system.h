@@ -50,6 +50,16 @@ struct Plant {
   double drive_force(double t, double x) const noexcept { return k_d * fmadd(v_d, t, -x); }
 };
 
+/// LuGre for single trajectories (rk4, adaptive): the same results as LuGre, bitwise, through
+/// LuGre::eval_scalar (a branch past the Stribeck flush point instead of the batched kernels'
+/// select). The batched kernels use LuGre itself.
+struct ScalarLuGre : LuGre {
+  explicit ScalarLuGre(const FrictionParams& p) : LuGre(p) {}
+  FrictionEval operator()(double v_r, double s, double /*F_d*/) const noexcept {
+    return eval_scalar(v_r, s);
+  }
+};
+
 /// Derivative plus the forces it came from.
 struct Deriv {
   State d;
@@ -291,8 +301,18 @@ class TraceRecorder {
   bool active() const noexcept { return period_ > 0; }
   /// sensor_dynamics: the trace's F_d becomes the sensor's output (see extensions.h).
   void set_sensor(const SensorFilter& f) { sensor_ = f; }
-  void add(TraceSample now) {
+  /// Called on every integrator step: the common case (no sample due, no sensor) is inline.
+  void add(const TraceSample& now) {
     if (period_ <= 0) return;
+    if (have_prev_ && now.t < next_t_ && !sensor_.active()) {
+      prev_ = now;
+      return;
+    }
+    add_slow(now);
+  }
+
+ private:
+  void add_slow(TraceSample now) {
     if (sensor_.active()) now.F_d = sensor_.step(now.t, now.F_d);
     if (!have_prev_) {
       prev_ = now;
@@ -310,7 +330,6 @@ class TraceRecorder {
     prev_ = now;
   }
 
- private:
   void emit(const TraceSample& s) {
     out_->push_back(s);
     ++count_;

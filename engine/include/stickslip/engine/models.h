@@ -101,12 +101,26 @@ struct LuGre {
     const double ds = v_r - std::fabs(v_r) * k_t * s / g_kt;
     return {fmadd(h_t * e, ds, fmadd(k_t, s, h_v * v_r)), ds};
   }
+  /// Scalar form of operator() for single trajectories (rk4, adaptive): bitwise the same
+  /// results, but beyond the flush point (|v_r| > 7.7 v_s, where e = 0) a branch skips the exp
+  /// and its latency: with e = 0, fmadd(F_S - F_C, 0, F_C) is F_C and fmadd(0, ds, X) is X
+  /// exactly, which is what this branch computes. The batched kernels keep the select form
+  /// (operator()) so that they vectorise.
+  FrictionEval eval_scalar(double v_r, double s) const noexcept {
+    if (v_r * v_r * inv_vs2 > kStribeckFlush)
+      return {fmadd(k_t, s, h_v * v_r), v_r - std::fabs(v_r) * k_t * s / F_C};
+    return (*this)(v_r, s, 0.0);
+  }
+  /// (v_r/v_s)^2 beyond which the Stribeck factor is taken as 0: exp(-60) = 8.8e-27, so the
+  /// dropped terms (F_S - F_C) e and h_t e s' are below 1e-22 N for |s'| < 1 m/s, far below the
+  /// round-off of g and F_f (~1e-15 N).
+  static constexpr double kStribeckFlush = 60.0;
   /// exp(-(v_r/v_s)^2), by the vectorisable exp of exp.h (bitwise the same in single and
-  /// batched runs). Flushed to 0 beyond (v_r/v_s)^2 = 708, where exp would give subnormals
-  /// (< 3.3e-308, slow and physically meaningless).
+  /// batched runs). Flushed to 0 beyond (v_r/v_s)^2 = kStribeckFlush (see there; exp would
+  /// give subnormals beyond 708).
   double stribeck(double v_r) const noexcept {
     const double q = v_r * v_r * inv_vs2;
-    return q > 708.0 ? 0.0 : exp_vectorizable(-q);
+    return q > kStribeckFlush ? 0.0 : exp_vectorizable(-q);
   }
   double lambda(double v_r) const noexcept {
     return std::fabs(v_r) * k_t / (F_C + (F_S - F_C) * stribeck(v_r));
