@@ -70,7 +70,7 @@ int main(int argc, char** argv) {
       passed += v.ok();
       seconds += d.seconds;
       std::printf("%-24s %4d %-24s %7.3f %11.4g %11.4g %6.1f %5s\n", c.name.c_str(), s,
-                  d.cause.c_str(), d.gain, c.value, v.recovered, d.seconds, v.ok() ? "yes" : "NO");
+                  d.cause.c_str(), d.gain, v.truth, v.recovered, d.seconds, v.ok() ? "yes" : "NO");
       if (verbose) {
         std::printf("%s(%d model evaluations)\n", summary_text(d).c_str(), d.evaluations);
         // Refitted base parameters, fit RMSE and LR of every candidate: where a fit went.
