@@ -77,8 +77,8 @@ int main(int argc, char** argv) {
         for (const auto& cand : d.candidates) {
           std::printf("  %-24s fit %.4f lr %.1f p %.2g |", to_string(cand.kind), cand.rmse_fit,
                       cand.lr, cand.p_value);
-          for (const auto& p : cand.base_params) std::printf(" %s=%.4g", p.name.c_str(), p.value);
-          for (const auto& p : cand.params) std::printf(" %s=%.4g", p.name.c_str(), p.value);
+          for (const auto& p : cand.base_params) std::printf(" %s=%.6g", p.name.c_str(), p.value);
+          for (const auto& p : cand.params) std::printf(" %s=%.6g", p.name.c_str(), p.value);
           std::printf("\n");
         }
         for (const auto& cal : d.calibrations)

@@ -12,6 +12,7 @@
 
 #include "diagnose_fit.h"
 #include "diagnose_load.h"
+#include "diagnose_sensor.h"
 #include "stickslip/engine/metrics.h"
 
 namespace stickslip::studies {
@@ -484,6 +485,8 @@ Diagnosis diagnose(const MeasuredDataset& data, const DiagnoseOptions& o) {
         th.insert(th.end(), es.begin(), es.end());
         starts.push_back(th);
       }
+      if (kind == ExtensionKind::kSensorDynamics)  // held-v_s profile starts (diagnose_sensor.h)
+        sensor_profile_starts(P, base.model, base.theta, o, &starts, &held_starts, &c.res.evals);
       // Phase A: cycle features (mean, amplitude, period per stage; smooth in the parameters,
       // unlike the slip timing), so the base parameters can move far from the base optimum
       // together with the extension (a viscous term raises the cycle mean that the base had
