@@ -44,6 +44,9 @@ std::vector<HiddenCase> hidden_effect_cases() {
   for (auto& k : c)
     k.in_ci = k.name == "drift" || k.name == "clean_white" || k.name == "small_viscous" ||
               k.name == "drive_damping";
+  // Branch diag-load (docs/diagnose.md): 2 of 2 seeds each, normal load judged on eta_v.
+  for (auto& k : c)
+    if (k.name == "normal_load_modulation" || k.name == "sensor_dynamics") k.in_ci = true;
   return c;
 }
 
