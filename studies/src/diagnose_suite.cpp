@@ -21,8 +21,9 @@ std::vector<HiddenCase> hidden_effect_cases() {
     // Normal-load modulation is seen only through the change of each vibrating stage's mean
     // level, mostly through its part in phase with the base velocity, eta_v = eta sin(phi)
     // (diagnose_load.h). Hidden at phi = 1 rad, so both components are non-zero; judged on
-    // eta_v.
+    // eta_v within 15 % (measured errors 2-3 %, docs/diagnose.md).
     n.more = {{"load_phi", 1.0}};
+    n.rel_tol = 0.15;
     n.judged = "load_eta_v";
     n.judged_value = 0.3 * std::sin(1.0);
   }
@@ -44,9 +45,12 @@ std::vector<HiddenCase> hidden_effect_cases() {
   for (auto& k : c)
     k.in_ci = k.name == "drift" || k.name == "clean_white" || k.name == "small_viscous" ||
               k.name == "drive_damping";
-  // Branch diag-load (docs/diagnose.md): 2 of 2 seeds each, normal load judged on eta_v.
-  for (auto& k : c)
+  // Branch diag-load (docs/diagnose.md): 2 of 2 seeds each, normal load judged on eta_v;
+  // sensor tau within 15 % (measured errors 1-3 %).
+  for (auto& k : c) {
     if (k.name == "normal_load_modulation" || k.name == "sensor_dynamics") k.in_ci = true;
+    if (k.name == "sensor_dynamics") k.rel_tol = 0.15;
+  }
   return c;
 }
 
