@@ -70,15 +70,15 @@ int main(int argc, char** argv) {
       passed += v.ok();
       seconds += d.seconds;
       std::printf("%-24s %4d %-24s %7.3f %11.4g %11.4g %6.1f %5s\n", c.name.c_str(), s,
-                  d.cause.c_str(), d.gain, c.value, v.recovered, d.seconds, v.ok() ? "yes" : "NO");
+                  d.cause.c_str(), d.gain, v.truth, v.recovered, d.seconds, v.ok() ? "yes" : "NO");
       if (verbose) {
         std::printf("%s(%d model evaluations)\n", summary_text(d).c_str(), d.evaluations);
         // Refitted base parameters, fit RMSE and LR of every candidate: where a fit went.
         for (const auto& cand : d.candidates) {
           std::printf("  %-24s fit %.4f lr %.1f p %.2g |", to_string(cand.kind), cand.rmse_fit,
                       cand.lr, cand.p_value);
-          for (const auto& p : cand.base_params) std::printf(" %s=%.4g", p.name.c_str(), p.value);
-          for (const auto& p : cand.params) std::printf(" %s=%.4g", p.name.c_str(), p.value);
+          for (const auto& p : cand.base_params) std::printf(" %s=%.6g", p.name.c_str(), p.value);
+          for (const auto& p : cand.params) std::printf(" %s=%.6g", p.name.c_str(), p.value);
           std::printf("\n");
         }
         for (const auto& cal : d.calibrations)

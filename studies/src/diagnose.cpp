@@ -11,6 +11,8 @@
 #include <stdexcept>
 
 #include "diagnose_fit.h"
+#include "diagnose_load.h"
+#include "diagnose_sensor.h"
 #include "stickslip/engine/metrics.h"
 
 namespace stickslip::studies {
@@ -259,7 +261,9 @@ std::vector<std::vector<double>> extension_starts(ExtensionKind k, const std::ve
       s = {{0.0}, {std::clamp(ev.trend_per_m / F_C0, -39.0, 39.0)}};
       break;
     case ExtensionKind::kNormalLoadModulation:
-      for (double ph : {0.0, 0.5 * M_PI, M_PI, 1.5 * M_PI}) s.push_back({0.1, ph - M_PI});
+      // (eta_v, eta_q), diagnose_load.h: the observed levels are linear in them, so the
+      // feature LM needs no phase scan; one start per sign of each component.
+      s = {{0.0, 0.0}, {0.1, 0.0}, {-0.1, 0.0}, {0.0, 0.1}, {0.0, -0.1}};
       break;
     case ExtensionKind::kSensorDynamics:
       s = {{2e-3, 0.7}, {1e-3, 0.3}, {5e-3, 1.0}, {5e-3, 0.3}};
@@ -481,6 +485,8 @@ Diagnosis diagnose(const MeasuredDataset& data, const DiagnoseOptions& o) {
         th.insert(th.end(), es.begin(), es.end());
         starts.push_back(th);
       }
+      if (kind == ExtensionKind::kSensorDynamics)  // held-v_s profile starts (diagnose_sensor.h)
+        sensor_profile_starts(P, base.model, base.theta, o, &starts, &held_starts, &c.res.evals);
       // Phase A: cycle features (mean, amplitude, period per stage; smooth in the parameters,
       // unlike the slip timing), so the base parameters can move far from the base optimum
       // together with the extension (a viscous term raises the cycle mean that the base had
@@ -512,9 +518,11 @@ Diagnosis diagnose(const MeasuredDataset& data, const DiagnoseOptions& o) {
       const double rho = lag1(P, c.full);
       c.n_eff = std::max(static_cast<double>(c.full.n_fit) * (1 - rho) / (1 + rho), 10.0);
       c.res.aic = c.n_eff * std::log(c.full.sse_fit / c.full.n_fit) + 2.0 * c.theta.size();
-      const auto se = standard_errors(P, c.model, c.theta, c.full.n_fit / c.n_eff, &c.res.evals);
+      std::vector<double> cov;
+      const auto se = standard_errors(P, c.model, c.theta, c.full.n_fit / c.n_eff, &c.res.evals, &cov);
       c.res.base_params = estimates(c.model, c.theta, se, 0, nb);
       c.res.params = estimates(c.model, c.theta, se, nb, c.theta.size());
+      if (kind == ExtensionKind::kNormalLoadModulation) append_load_estimates(c.theta, nb, cov, &c.res.params);
     } catch (const std::exception& e) {
       c.res.status = std::string("failed: ") + e.what();
     }

@@ -7,6 +7,7 @@
 #include <nlopt.hpp>
 #include <stdexcept>
 
+#include "diagnose_load.h"
 #include "stickslip/engine/metrics.h"
 #include "stickslip/engine/simulate.h"
 
@@ -29,11 +30,17 @@ SimConfig FitModel::config(const RunData& run, const std::vector<double>& theta,
   SimConfig c = base;
   apply_conditions(run.cond, c);
   double ratio = -1;
+  double load[2] = {0, 0};  // normal-load components (diagnose_load.h)
+  bool has_load = false;
   for (std::size_t i = 0; i < specs.size(); ++i) {
     if (specs[i].name == "F_C/F_S") ratio = theta[i];
-    else set_parameter(c, specs[i].name, theta[i]);
+    else if (is_load_component(specs[i].name)) {
+      load[specs[i].name == kLoadInPhase ? 0 : 1] = theta[i];
+      has_load = true;
+    } else set_parameter(c, specs[i].name, theta[i]);
   }
   if (ratio > 0) c.friction.F_C = ratio * c.friction.F_S;
+  if (has_load) apply_load_components(c, load[0], load[1]);
   // Keep only [0, t_end].
   std::vector<Stage> st;
   double t = 0;
@@ -383,7 +390,7 @@ FitResult fit(const Problem& p, const FitModel& m, const std::vector<std::vector
 
 std::vector<double> standard_errors(const Problem& p, const FitModel& m,
                                     const std::vector<double>& theta, double n_over_neff,
-                                    int* evals) {
+                                    int* evals, std::vector<double>* cov_si) {
   const std::size_t k = theta.size();
   std::vector<double> out(k, std::numeric_limits<double>::quiet_NaN());
   const Evaluation e0 = evaluate(p, m, theta, Span::kFit, 0);
@@ -417,6 +424,13 @@ std::vector<double> standard_errors(const Problem& p, const FitModel& m,
   for (std::size_t j = 0; j < k; ++j)
     out[j] = std::sqrt(std::max(0.0, cov(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(j)))) *
              std::fabs(m.specs[j].dvalue_du(u[j]));
+  if (cov_si) {
+    cov_si->assign(k * k, 0.0);
+    for (std::size_t i = 0; i < k; ++i)
+      for (std::size_t j = 0; j < k; ++j)
+        (*cov_si)[i * k + j] = cov(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j)) *
+                               m.specs[i].dvalue_du(u[i]) * m.specs[j].dvalue_du(u[j]);
+  }
   return out;
 }
 
@@ -455,7 +469,9 @@ std::vector<ParamSpec> extension_specs(ExtensionKind k) {
               {"waviness_phi", -2 * M_PI, 2 * M_PI, false, 0.0}};
     case ExtensionKind::kDrift: return {{"drift_gamma", -40.0, 40.0, false, 0.0}};
     case ExtensionKind::kNormalLoadModulation:
-      return {{"load_eta", 0.0, 0.8, false, 0.05}, {"load_phi", -2 * M_PI, 2 * M_PI, false, 0.0}};
+      // Cartesian components, on which the observed levels depend linearly (diagnose_load.h);
+      // |component| <= 0.7 keeps eta = hypot < 1.
+      return {{kLoadInPhase, -0.7, 0.7, false, 0.0}, {kLoadQuadrature, -0.7, 0.7, false, 0.0}};
     case ExtensionKind::kSensorDynamics:
       return {{"sensor_tau", 2e-4, 0.05, true, 2e-3}, {"sensor_zeta", 0.05, 3.0, true, 0.7}};
     case ExtensionKind::kDriveDamping: return {{"c_d", 0.0, 300.0, false, 1.0}};

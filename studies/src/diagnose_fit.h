@@ -95,10 +95,11 @@ struct FitResult {
 FitResult fit(const Problem& p, const FitModel& m, const std::vector<std::vector<double>>& starts,
               Span span, double short_end, int max_evals);
 
-/// Standard errors (SI) from the finite-difference Jacobian, inflated by n / n_eff.
+/// Standard errors (SI) from the finite-difference Jacobian, inflated by n / n_eff; cov_si
+/// (optional) receives the whole covariance (SI, row-major k x k) when it could be computed.
 std::vector<double> standard_errors(const Problem& p, const FitModel& m,
                                     const std::vector<double>& theta, double n_over_neff,
-                                    int* evals);
+                                    int* evals, std::vector<double>* cov_si = nullptr);
 
 /// Parameter specs of the base models, with data-driven starting values (F_C0: stage-1 mean,
 /// F_S0: mean + amplitude / 2).

@@ -16,6 +16,17 @@ std::vector<HiddenCase> hidden_effect_cases() {
       {"sensor_dynamics", K::kSensorDynamics, "sensor_tau", 5e-3, 0.3},
       {"drive_damping", K::kDriveDamping, "c_d", 20.0, 0.3},
   };
+  for (auto& n : c) {
+    if (n.name != "normal_load_modulation") continue;
+    // Normal-load modulation is seen only through the change of each vibrating stage's mean
+    // level, mostly through its part in phase with the base velocity, eta_v = eta sin(phi)
+    // (diagnose_load.h). Hidden at phi = 1 rad, so both components are non-zero; judged on
+    // eta_v within 15 % (measured errors 2-3 %, docs/diagnose.md).
+    n.more = {{"load_phi", 1.0}};
+    n.rel_tol = 0.15;
+    n.judged = "load_eta_v";
+    n.judged_value = 0.3 * std::sin(1.0);
+  }
   HiddenCase clean{"clean_white", K::kNone, "", 0.0};
   c.push_back(clean);
   clean.name = "clean_ar1";
@@ -34,6 +45,12 @@ std::vector<HiddenCase> hidden_effect_cases() {
   for (auto& k : c)
     k.in_ci = k.name == "drift" || k.name == "clean_white" || k.name == "small_viscous" ||
               k.name == "drive_damping";
+  // Branch diag-load (docs/diagnose.md): 2 of 2 seeds each, normal load judged on eta_v;
+  // sensor tau within 15 % (measured errors 1-3 %).
+  for (auto& k : c) {
+    if (k.name == "normal_load_modulation" || k.name == "sensor_dynamics") k.in_ci = true;
+    if (k.name == "sensor_dynamics") k.rel_tol = 0.15;
+  }
   return c;
 }
 
@@ -47,6 +64,7 @@ SynthOptions hidden_case_dataset(const HiddenCase& c, std::uint64_t seed, bool f
   o.model.friction.v_s = 3.5e-4 * 0.92;
   o.model.extension.kind = c.kind;
   if (!c.param.empty()) set_parameter(o.model, c.param, c.value);
+  for (const auto& [name, value] : c.more) set_parameter(o.model, name, value);
   const std::vector<double> vas = full ? std::vector<double>{1.5e-3, 3e-3, 5e-3}
                                        : std::vector<double>{1.5e-3, 5e-3};
   for (double va : vas) {
@@ -79,8 +97,13 @@ HiddenVerdict judge(const HiddenCase& c, const Diagnosis& d) {
     v.gain_ok = v.param_ok = true;
     return v;
   }
+  v.truth = c.judged.empty() ? c.value : c.judged_value;
   for (const auto& cand : d.candidates)
-    if (cand.kind == c.kind && !cand.params.empty()) v.recovered = cand.params[0].value;
+    if (cand.kind == c.kind && !cand.params.empty()) {
+      v.recovered = cand.params[0].value;
+      for (const auto& p : cand.params)
+        if (!c.judged.empty() && p.name == c.judged) v.recovered = p.value;
+    }
   if (c.small) {
     v.cause_ok = d.cause == "none" || d.cause == right;
     v.gain_ok = v.param_ok = true;
@@ -88,7 +111,7 @@ HiddenVerdict judge(const HiddenCase& c, const Diagnosis& d) {
   }
   v.cause_ok = d.cause == right;
   v.gain_ok = d.gain > 0;
-  v.param_ok = std::fabs(v.recovered - c.value) <= c.rel_tol * std::fabs(c.value);
+  v.param_ok = std::fabs(v.recovered - v.truth) <= c.rel_tol * std::fabs(v.truth);
   return v;
 }
 

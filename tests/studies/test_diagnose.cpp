@@ -120,8 +120,9 @@ void run_case(const HiddenCase& c) {
     EXPECT_TRUE(v.cause_ok) << c.name << " seed " << s << ": named " << d.cause << "\n"
                             << summary_text(d);
     EXPECT_TRUE(v.gain_ok) << c.name << " seed " << s << ": gain " << d.gain;
-    EXPECT_TRUE(v.param_ok) << c.name << " seed " << s << ": " << c.param << " = " << v.recovered
-                            << ", hidden " << c.value << " (tolerance " << c.rel_tol * 100 << " %)";
+    EXPECT_TRUE(v.param_ok) << c.name << " seed " << s << ": "
+                            << (c.judged.empty() ? c.param : c.judged) << " = " << v.recovered
+                            << ", hidden " << v.truth << " (tolerance " << c.rel_tol * 100 << " %)";
     if (c.kind == ExtensionKind::kNone && s == 0) {
       // The base is recovered and the JSON has every field issue 5 asks for.
       EXPECT_EQ(d.base_model, ModelKind::kLuGre);

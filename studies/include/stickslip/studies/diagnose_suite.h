@@ -13,6 +13,7 @@
 #include <cstdint>
 #include <ostream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "stickslip/studies/diagnose.h"
@@ -32,6 +33,13 @@ struct HiddenCase {
   /// Passes reliably (every seed) with the current method, so it runs in default CI; the others
   /// fail today and run only with STICKSLIP_DIAGNOSE_SUITE (docs/diagnose.md "Status").
   bool in_ci = false;
+  /// Further parameters of the hidden effect (engine names, SI), e.g. {"load_phi", 1.0}.
+  std::vector<std::pair<std::string, double>> more = {};
+  /// The candidate's reported parameter that is judged, against judged_value within rel_tol;
+  /// empty: its first reported parameter against value. (normal_load_modulation: only the
+  /// in-phase component load_eta_v = eta sin(phi) is well identified, diagnose_load.h.)
+  std::string judged = {};
+  double judged_value = 0;
 };
 
 /// GoogleTest prints a case by its name (not as bytes) in test names and messages.
@@ -53,6 +61,7 @@ DiagnoseOptions hidden_case_options(bool full);
 struct HiddenVerdict {
   bool cause_ok = false, gain_ok = false, param_ok = false;
   double recovered = 0;  ///< fitted size parameter of the hidden effect's candidate (SI)
+  double truth = 0;      ///< what recovered is compared with (value or judged_value)
   bool ok() const { return cause_ok && gain_ok && param_ok; }
 };
 HiddenVerdict judge(const HiddenCase& c, const Diagnosis& d);
