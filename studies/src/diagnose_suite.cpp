@@ -16,6 +16,16 @@ std::vector<HiddenCase> hidden_effect_cases() {
       {"sensor_dynamics", K::kSensorDynamics, "sensor_tau", 5e-3, 0.3},
       {"drive_damping", K::kDriveDamping, "c_d", 20.0, 0.3},
   };
+  for (auto& k : c)
+    if (k.name == "waviness") {
+      // Enough stick-slip peaks at distinct positions to see a wave along x (the peaks' scan,
+      // diagnose_starts.h): 6 s of still base (about 7 slips, x up to 5 mm).
+      k.own_t_on = 6.0;
+      k.own_duration = 7.5;
+    } else if (k.name == "stribeck_shape") {
+      k.own_va = {1.2e-3, 1.3e-3};
+      k.own_duration = 6.0;
+    }
   HiddenCase clean{"clean_white", K::kNone, "", 0.0};
   c.push_back(clean);
   clean.name = "clean_ar1";
@@ -47,13 +57,16 @@ SynthOptions hidden_case_dataset(const HiddenCase& c, std::uint64_t seed, bool f
   o.model.friction.v_s = 3.5e-4 * 0.92;
   o.model.extension.kind = c.kind;
   if (!c.param.empty()) set_parameter(o.model, c.param, c.value);
-  const std::vector<double> vas = full ? std::vector<double>{1.5e-3, 3e-3, 5e-3}
-                                       : std::vector<double>{1.5e-3, 5e-3};
+  std::vector<double> vas = full ? std::vector<double>{1.5e-3, 3e-3, 5e-3}
+                                 : std::vector<double>{1.5e-3, 5e-3};
+  if (!full && !c.own_va.empty()) vas = c.own_va;
   for (double va : vas) {
     MeasuredConditions m;
     m.va = va;
     m.t_on = full ? 4.0 : 3.0;
     m.duration = full ? 7.0 : 4.5;
+    if (!full && c.own_t_on > 0) m.t_on = c.own_t_on;
+    if (!full && c.own_duration > 0) m.duration = c.own_duration;
     o.runs.push_back(m);
   }
   o.rate = full ? 2000.0 : 1000.0;

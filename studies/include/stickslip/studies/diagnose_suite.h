@@ -32,6 +32,12 @@ struct HiddenCase {
   /// Passes reliably (every seed) with the current method, so it runs in default CI; the others
   /// fail today and run only with STICKSLIP_DIAGNOSE_SUITE (docs/diagnose.md "Status").
   bool in_ci = false;
+  /// Run conditions of this case's own (empty / 0: the shared ones below). For effects the
+  /// shared conditions cannot identify (docs/diagnose.md "branch diag-shape"): v_a per run
+  /// [m/s], start of the vibration t_on [s] and run length [s], CI datasets only.
+  std::vector<double> own_va = {};
+  double own_t_on = 0;
+  double own_duration = 0;
 };
 
 /// GoogleTest prints a case by its name (not as bytes) in test names and messages.
