@@ -8,13 +8,6 @@
 
 namespace stickslip::studies::diag {
 
-/// What the peak scan saw (for the evidence): per wavelength on the grid the drop of the
-/// peaks' sum of squares, and the fitted relative amplitude and phase.
-struct WavePeakScan {
-  std::vector<double> lambda, drop, eps, phi;
-  double sst = 0;  ///< sum of squares of the peaks about their mean [N^2]
-};
-
 /// Starting points (eps, lambda, phi) for the waviness candidate, best first, from the measured
 /// stick-slip peaks against the position where the body was stuck.
 ///
@@ -24,7 +17,7 @@ struct WavePeakScan {
 /// diagnose_features.h) against x_k = v_d t_k - (P_k - offset) / k_d, known from the data alone,
 /// is c0 + a sin(2 pi x / lambda) + b cos(2 pi x / lambda): linear least squares (Eigen) for
 /// every wavelength on a grid uniform in 1 / lambda (step 1 / (8 X), X the range of x_k), over
-/// the extension's bounds limited to [2 X / n, 2 X] for n peaks. The local maxima of the drop
+/// the extension's bounds limited to [2 X / n, 2 X] for n peaks (all runs). The local maxima of the drop
 /// of the sum of squares are the starts: eps = hypot(a, b) / c0, phi = atan2(b, a).
 ///
 /// Why not the residuals of the base model: with a hidden waviness every slip happens at a
@@ -35,9 +28,10 @@ struct WavePeakScan {
 /// features are far from linear in the modulation (each peak moves the next stick position)
 /// and the base parameters have absorbed part of the effect (measured, docs/diagnose.md).
 ///
-/// Needs at least 5 peaks (returns nothing otherwise; the caller falls back to other starts).
+/// Needs at least 5 distinct stick positions (2e-5 m apart; returns nothing otherwise, and the
+/// caller falls back to the residual-spectrum starts).
 std::vector<std::vector<double>> waviness_peak_starts(const Problem& p, double offset,
                                                       const std::vector<ParamSpec>& wave_specs,
-                                                      int n_starts, WavePeakScan* scan = nullptr);
+                                                      int n_starts);
 
 }  // namespace stickslip::studies::diag

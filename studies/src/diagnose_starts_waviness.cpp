@@ -9,7 +9,7 @@ namespace stickslip::studies::diag {
 
 std::vector<std::vector<double>> waviness_peak_starts(const Problem& p, double offset,
                                                       const std::vector<ParamSpec>& wave_specs,
-                                                      int n_starts, WavePeakScan* scan) {
+                                                      int n_starts) {
   std::vector<std::vector<double>> out;
   if (wave_specs.size() != 3) return out;
   // (x_k, P_k) of every measured slip: while stuck x is constant and F_d = k_d (v_d t - x), so
@@ -23,7 +23,14 @@ std::vector<std::vector<double>> waviness_peak_starts(const Problem& p, double o
         ps.push_back(P);
       }
   const auto n = static_cast<Eigen::Index>(xs.size());
-  if (n < 5) return out;  // 3 coefficients need clearly more than 3 peaks
+  {  // 3 coefficients need clearly more than 3 distinct stick positions (runs with the same
+     // still stage repeat the same positions)
+    std::vector<double> sx = xs;
+    std::sort(sx.begin(), sx.end());
+    int distinct = sx.empty() ? 0 : 1;
+    for (std::size_t i = 1; i < sx.size(); ++i) distinct += sx[i] - sx[i - 1] > 2e-5;
+    if (distinct < 5) return out;
+  }
   const double xmin = *std::min_element(xs.begin(), xs.end());
   const double X = *std::max_element(xs.begin(), xs.end()) - xmin;
   if (!(X > 0)) return out;
@@ -52,7 +59,6 @@ std::vector<std::vector<double>> waviness_peak_starts(const Problem& p, double o
     eps.push_back(std::hypot(c(1), c(2)) / c(0));
     phi.push_back(std::atan2(c(2), c(1)));
   }
-  if (scan) *scan = {lam, drop, eps, phi, sst};
   std::vector<std::size_t> peaks;
   for (std::size_t i = 0; i < lam.size(); ++i) {
     const bool left = i == 0 || drop[i] >= drop[i - 1];

@@ -34,7 +34,7 @@ struct HiddenCase {
   bool in_ci = false;
   /// Run conditions of this case's own (empty / 0: the shared ones below). For effects the
   /// shared conditions cannot identify (docs/diagnose.md "branch diag-shape"): v_a per run
-  /// [m/s], start of the vibration t_on [s] and run length [s], CI datasets only.
+  /// [m/s], start of the vibration t_on [s] and run length [s] (CI and full datasets).
   std::vector<double> own_va = {};
   double own_t_on = 0;
   double own_duration = 0;
