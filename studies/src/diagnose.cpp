@@ -13,6 +13,7 @@
 #include "diagnose_fit.h"
 #include "diagnose_load.h"
 #include "diagnose_sensor.h"
+#include "diagnose_starts.h"
 #include "stickslip/engine/metrics.h"
 
 namespace stickslip::studies {
@@ -443,10 +444,22 @@ Diagnosis diagnose(const MeasuredDataset& data, const DiagnoseOptions& o) {
       const ExtensionKind kind = o.candidates[i];
       const bool profile = kind == ExtensionKind::kViscous || kind == ExtensionKind::kDriveDamping ||
                            kind == ExtensionKind::kStribeckShape || kind == ExtensionKind::kDwellTime;
-      for (const auto& es : extension_starts(kind, ext, ev, scan, F_C0)) {
+      auto ext_starts = extension_starts(kind, ext, ev, scan, F_C0);
+      bool wave_profile = false;
+      if (kind == ExtensionKind::kWaviness) {
+        // The residual spectrum is slip-timing noise when the base misses slips: starts from the
+        // measured peaks against the stick position instead (diagnose_starts.h), each with a
+        // profile start (the base has absorbed part of the effect), when there are enough peaks.
+        auto ws = waviness_peak_starts(P, base.full.offset, ext, 3);
+        if (!ws.empty()) {
+          ext_starts = std::move(ws);
+          wave_profile = true;
+        }
+      }
+      for (const auto& es : ext_starts) {
         std::vector<double> th = base.theta;
         const bool neutral = profile && es[0] == (kind == ExtensionKind::kStribeckShape ? 2.0 : 0.0);
-        if (profile && !neutral) {
+        if ((profile && !neutral) || wave_profile) {
           FitModel pm = base.model;
           pm.base.extension.kind = kind;
           for (std::size_t j = 0; j < es.size(); ++j) set_parameter(pm.base, ext[j].name, es[j]);

@@ -27,6 +27,24 @@ std::vector<HiddenCase> hidden_effect_cases() {
     n.judged = "load_eta_v";
     n.judged_value = 0.3 * std::sin(1.0);
   }
+  for (auto& k : c)
+    if (k.name == "waviness") {
+      // Enough stick-slip peaks at distinct positions to see a wave along x (the peaks' scan,
+      // diagnose_starts.h): 6 s of still base, so the fitted 4.2 s hold 5 slips per run at
+      // x = 0 ... 2.7 mm. With the shared 3 s there are 2 (the fitted 2.1 s), the same in both
+      // runs: a 3-parameter wave is not identifiable from them (an alias, lambda = 0.40 mm,
+      // eps = 0.075, fits 0.044 N RMS against 0.030 N for the truth; docs/diagnose.md).
+      k.own_t_on = 6.0;
+      k.own_duration = 7.5;
+    } else if (k.name == "stribeck_shape") {
+      // The Stribeck exponent is seen where the vibration makes v_r sweep just through zero,
+      // v_a slightly above v_d = 1 mm/s (the stage-2 level and its relaxation); at the shared
+      // 1.5 and 5 mm/s a base with v_s free absorbs delta = 1 to 0.004 N (docs/diagnose.md,
+      // "branch diag-shape"). 3 s vibrating, so the fitted 2 s reach the settled level.
+      // Not chaotic: dm/m = 1e-12 moves F_d by < 7e-5 N.
+      k.own_va = {1.2e-3, 1.3e-3};
+      k.own_duration = 6.0;
+    }
   HiddenCase clean{"clean_white", K::kNone, "", 0.0};
   c.push_back(clean);
   clean.name = "clean_ar1";
@@ -39,12 +57,13 @@ std::vector<HiddenCase> hidden_effect_cases() {
   c.push_back(s);
   s = {"small_normal_load", K::kNormalLoadModulation, "load_eta", 0.005, 0.3, true};
   c.push_back(s);
-  // Measured with bench/diagnose_suite (docs/diagnose.md): these pass on every seed today.
+  // Measured with bench/diagnose_suite (docs/diagnose.md): these pass on every seed today
+  // (waviness and stribeck_shape with their own conditions above, seeds 1000-1001).
   // dwell_time passed on both seeds before the adaptive-integrator changes of session 3 and
   // fails on seed 1000 since (names drift): gated until the fit is robust to such changes.
   for (auto& k : c)
     k.in_ci = k.name == "drift" || k.name == "clean_white" || k.name == "small_viscous" ||
-              k.name == "drive_damping";
+              k.name == "drive_damping" || k.name == "waviness" || k.name == "stribeck_shape";
   // Branch diag-load (docs/diagnose.md): 2 of 2 seeds each, normal load judged on eta_v;
   // sensor tau within 15 % (measured errors 1-3 %).
   for (auto& k : c) {
@@ -65,13 +84,16 @@ SynthOptions hidden_case_dataset(const HiddenCase& c, std::uint64_t seed, bool f
   o.model.extension.kind = c.kind;
   if (!c.param.empty()) set_parameter(o.model, c.param, c.value);
   for (const auto& [name, value] : c.more) set_parameter(o.model, name, value);
-  const std::vector<double> vas = full ? std::vector<double>{1.5e-3, 3e-3, 5e-3}
-                                       : std::vector<double>{1.5e-3, 5e-3};
+  std::vector<double> vas = full ? std::vector<double>{1.5e-3, 3e-3, 5e-3}
+                                 : std::vector<double>{1.5e-3, 5e-3};
+  if (!c.own_va.empty()) vas = c.own_va;
   for (double va : vas) {
     MeasuredConditions m;
     m.va = va;
     m.t_on = full ? 4.0 : 3.0;
     m.duration = full ? 7.0 : 4.5;
+    if (c.own_t_on > 0) m.t_on = c.own_t_on;
+    if (c.own_duration > 0) m.duration = c.own_duration;
     o.runs.push_back(m);
   }
   o.rate = full ? 2000.0 : 1000.0;

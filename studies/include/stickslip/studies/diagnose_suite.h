@@ -40,6 +40,12 @@ struct HiddenCase {
   /// in-phase component load_eta_v = eta sin(phi) is well identified, diagnose_load.h.)
   std::string judged = {};
   double judged_value = 0;
+  /// Run conditions of this case's own (empty / 0: the shared ones below). For effects the
+  /// shared conditions cannot identify (docs/diagnose.md "branch diag-shape"): v_a per run
+  /// [m/s], start of the vibration t_on [s] and run length [s] (CI and full datasets).
+  std::vector<double> own_va = {};
+  double own_t_on = 0;
+  double own_duration = 0;
 };
 
 /// GoogleTest prints a case by its name (not as bytes) in test names and messages.
