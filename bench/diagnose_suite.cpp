@@ -75,8 +75,9 @@ int main(int argc, char** argv) {
         std::printf("%s(%d model evaluations)\n", summary_text(d).c_str(), d.evaluations);
         // Refitted base parameters, fit RMSE and LR of every candidate: where a fit went.
         for (const auto& cand : d.candidates) {
-          std::printf("  %-24s fit %.4f lr %.1f p %.2g |", to_string(cand.kind), cand.rmse_fit,
-                      cand.lr, cand.p_value);
+          std::printf("  %-24s fit %.4f held %.4f lr %.1f p %.2g%s |", to_string(cand.kind),
+                      cand.rmse_fit, cand.rmse_heldout, cand.lr, cand.p_value,
+                      cand.at_base_point ? " (at base point)" : "");
           for (const auto& p : cand.base_params) std::printf(" %s=%.6g", p.name.c_str(), p.value);
           for (const auto& p : cand.params) std::printf(" %s=%.6g", p.name.c_str(), p.value);
           std::printf("\n");

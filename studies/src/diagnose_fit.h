@@ -106,6 +106,9 @@ std::vector<double> standard_errors(const Problem& p, const FitModel& m,
 std::vector<ParamSpec> base_specs(ModelKind m, double F_C0, double F_S0);
 /// Parameter specs of an extension.
 std::vector<ParamSpec> extension_specs(ExtensionKind k);
+/// Extension parameters (in extension_specs order) at which the extension is neutral, i.e. the
+/// model is its base (extensions.h). May lie outside the unit box (sensor_tau = 0).
+std::vector<double> neutral_extension(ExtensionKind k);
 
 /// Builds the problem from the dataset (decimation and roles).
 Problem make_problem(const MeasuredDataset& data, const DiagnoseOptions& o);

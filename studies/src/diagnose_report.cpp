@@ -58,6 +58,7 @@ nlohmann::json to_json(const Diagnosis& d) {
                      {"p_value", json_number(c.p_value)},
                      {"p_holm", json_number(c.p_holm)},
                      {"significant", c.significant},
+                     {"at_base_point", c.at_base_point},
                      {"evaluations", c.evals}});
   const Evidence& e = d.evidence;
   nlohmann::json lv = nlohmann::json::array();
@@ -99,7 +100,8 @@ nlohmann::json to_json(const Diagnosis& d) {
                  {"alpha", o.alpha},
                  {"min_gain", o.min_gain},
                  {"correction", "holm"},
-                 {"rtol", o.rtol}};
+                 {"rtol", o.rtol},
+                 {"rtol_score", o.rtol_score}};
   j["seconds"] = d.seconds;
   j["evaluations"] = d.evaluations;
   return j;

@@ -47,8 +47,13 @@ struct DiagnoseOptions {
   double later_stage_fit_span = 2.0;    ///< seconds of each later stage fitted [s]
   double short_window = 3.0;            ///< base models' first fit window [s]
   double rtol = 1e-5;                   ///< engine accuracy while fitting (rtol = atol [N])
+  /// Engine accuracy of the final scoring (fit-set SSE for the LR test and the information
+  /// criterion, held-out RMSE) of the base and of every candidate's fitted point: one span,
+  /// one code path, one accuracy for all, so that the comparisons are not decided by
+  /// integration error (docs/diagnose.md "Scoring").
+  double rtol_score = 1e-7;
   int max_evals_base = 70;              ///< objective evaluations per base model
-  int max_evals_candidate = 45;         ///< objective evaluations per extension
+  int max_evals_candidate = 110;        ///< objective evaluations per extension (phases A + B)
   int max_evals_profile = 12;           ///< per profile start (base refit at a fixed size)
   double alpha = 0.01;                  ///< family-wise significance level [-]
   double min_gain = 0.1;                ///< minimum held-out gain to name a cause [-]
@@ -99,6 +104,10 @@ struct CandidateResult {
   int dof = 0;             ///< extra parameters
   double p_value = 1, p_holm = 1;
   bool significant = false;  ///< p_holm < alpha and gain >= min_gain
+  /// The candidate's own optimum scored worse than the base it nests, so it is reported at
+  /// the base point (its extension at the neutral size): an extended model is never worse
+  /// than its base.
+  bool at_base_point = false;
   int evals = 0;
 };
 
