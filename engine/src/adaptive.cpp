@@ -7,8 +7,8 @@
 //  - located stick/slip switches for Karnopp and the Reset Integrator (frozen mode inside a step,
 //    switch time found by regula falsi on the step length), which keeps the order of the method;
 //  - error control in force units (see IntegratorOptions);
-//  - Dahl/LuGre: a step limiter (and approach step) at the reversals of v_r and the base velocity at the stage times
-//    by angle addition (BaseAtStages);
+//  - Dahl/LuGre: a step limiter (and an approach step) at the reversals of v_r and the base
+//    velocity at the stage times by angle addition (BaseAtStages);
 //  - Karnopp/Reset Integrator: switches located on the continuous extension (DenseStep).
 // Measurements behind each choice: docs/engine.md, "Work-precision".
 // Dormand J.R., Prince P.J. (1980) A family of embedded Runge-Kutta formulae. J. Comp. Appl.
@@ -536,7 +536,8 @@ void run_adaptive(RunContext& ctx) {
     }
     case ModelKind::kLuGre: {
       const ScalarLuGre m(fp);
-      adaptive(ctx, SmoothSys<ScalarLuGre>{m}, ErrorScale{c.drive.k_d, z_contact, fp.k_t, inv_tol});
+      adaptive(ctx, SmoothSys<ScalarLuGre>{m},
+               ErrorScale{c.drive.k_d, z_contact, fp.k_t, inv_tol});
       break;
     }
     case ModelKind::kKarnopp: {
