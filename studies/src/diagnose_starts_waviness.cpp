@@ -51,6 +51,12 @@ std::vector<std::vector<double>> waviness_peak_starts(const Problem& p, double o
       A(i, 2) = std::cos(ph);
       y(i) = ps[static_cast<std::size_t>(i)];
     }
+    // A wavelength at which the stick positions all fall near the same phase (a slip jump that
+    // is a multiple of lambda: clean stick-slip repeats nearly the same jump) makes sin / cos
+    // nearly constant, collinear with c0; the fit is then meaningless (an unbounded eps).
+    Eigen::JacobiSVD<Eigen::MatrixXd> svd(A);
+    const auto& sv = svd.singularValues();
+    if (!(sv(2) > 0.05 * sv(0))) continue;
     const Eigen::VectorXd c = A.colPivHouseholderQr().solve(y);
     if (!(c(0) > 0)) continue;
     lam.push_back(1.0 / nu);
