@@ -6,14 +6,11 @@
 // held-out gain and its size parameter recovered within the case's tolerance (30-40 %); clean
 // data (white and AR(1) noise, base parameters 5-10 % off Table 1) must give "none"; an effect
 // too small to see must not be named as a wrong cause. Default CI: the short datasets, 2 seeds
-// per case, only the cases that pass today (HiddenCase::in_ci: drift, drive_damping,
-// clean_white, small_viscous, waviness and stribeck_shape, the last two with their own run
-// conditions); dwell_time (1 of 2 seeds since the session-3 engine change),
-// viscous (1 of 2 seeds),
-// normal_load_modulation, sensor_dynamics and clean_ar1 FAIL or are not yet shown to pass on every
-// seed (docs/diagnose.md "Status") and run only with
-// STICKSLIP_DIAGNOSE_SUITE=1; small_drift and small_normal_load pass but are left out of default
-// CI for time (docs/diagnose.md). STICKSLIP_DIAGNOSE_SUITE=full: the full datasets (3 runs x 7 s at 2 kHz, every base
+// per case, every catalogue effect and both nulls (HiddenCase::in_ci: viscous, stribeck_shape,
+// dwell_time, waviness, drift, normal_load_modulation, sensor_dynamics, drive_damping,
+// clean_white, clean_ar1, small_viscous; waviness and stribeck_shape with their own run
+// conditions). small_drift and small_normal_load run only with STICKSLIP_DIAGNOSE_SUITE=1 (CI
+// time). STICKSLIP_DIAGNOSE_SUITE=full: the full datasets (3 runs x 7 s at 2 kHz, every base
 // model), 3 seeds per case. bench/diagnose_suite prints the confusion table.
 #include "stickslip/studies/diagnose.h"
 #include "stickslip/studies/diagnose_suite.h"
