@@ -12,11 +12,15 @@
 //    Parameters are mapped to a unit box (log scale for scale parameters). Every fit starts on
 //    per-cycle / per-stage features (slip times, stick ramps, stage-2 block means, window mean
 //    and standard deviation; diagnose_features.h), fitted by Levenberg-Marquardt, then refines
-//    in the time domain with NLopt's BOBYQA. Extensions start from the base optimum plus
+//    in the time domain by Levenberg-Marquardt on the sample residuals (NLopt's BOBYQA only
+//    when LM makes no step). Extensions start from the base optimum plus
 //    starting values of their own (residual spectrum against x for waviness, phase grids), and
 //    the slip-acting ones (viscous, drive_damping, stribeck_shape, dwell_time) from profile
 //    starts: the base refitted on the features with the extension held at each starting size
 //    (viscous and drive_damping also with v_s held at its nominal value, then freed).
+//  * Scoring. The base and every candidate's final point are scored by one evaluation over
+//    the full span at rtol_score; a candidate whose optimum scores worse on the fit set than
+//    the base point is reported at the base point (it nests the base: at_base_point).
 //  * Uncertainty. Covariance s^2 (J^T J)^-1 from the finite-difference Jacobian of the
 //    residuals (Eigen), inflated by n / n_eff for correlated residuals.
 //  * Significance. Likelihood ratio n_eff ln(SSE_base / SSE_ext) ~ chi^2(k) with n_eff =
