@@ -57,7 +57,7 @@ struct DiagnoseOptions {
   /// integration error (docs/diagnose.md "Scoring").
   double rtol_score = 1e-7;
   int max_evals_base = 70;              ///< objective evaluations per base model
-  int max_evals_candidate = 110;        ///< objective evaluations per extension (phases A + B)
+  int max_evals_candidate = 160;        ///< objective evaluations per extension (phases A + B)
   int max_evals_profile = 12;           ///< per profile start (base refit at a fixed size)
   double alpha = 0.01;                  ///< family-wise significance level [-]
   double min_gain = 0.1;                ///< minimum held-out gain to name a cause [-]
