@@ -372,6 +372,11 @@ TEST_F(TransportTest, HttpThreadsRunAtTheIoNiceIncrement) {
   net.io_nice = 7;
   start(net);
   EXPECT_EQ(get_healthz().substr(0, 12), "HTTP/1.1 200");  // threads are up and serving
+  // A handler thread sets its nice when it starts, which may be after the I/O thread has
+  // answered (seen once in a full ctest -j2 run): wait up to 5 s for all three.
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+  while (count_at(std::min(19, base + 7)) - before < 3 && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
   EXPECT_EQ(count_at(std::min(19, base + 7)) - before, 3);  // 1 I/O + 2 handler threads
 }
 
