@@ -19,6 +19,7 @@
 #include <cmath>
 
 #include "integrators.h"
+#include "stickslip/engine/exp.h"
 #include "system.h"
 
 namespace stickslip::detail {
@@ -110,28 +111,10 @@ struct ErrorScale {
 inline void small_sincos(double x, double* c_out, double* s_out) noexcept {
   // |x| <= 1: the first omitted terms are x^20/20! < 4.2e-19 and x^19/19! < 8.3e-18.
   const double x2 = x * x;
-  double c = 1.0 / 6402373705728000.0, sn = 1.0 / 121645100408832000.0;  // 1/18!, 1/19!
-  constexpr double kInvFact[] = {1.0,
-                                 1.0,
-                                 1.0 / 2,
-                                 1.0 / 6,
-                                 1.0 / 24,
-                                 1.0 / 120,
-                                 1.0 / 720,
-                                 1.0 / 5040,
-                                 1.0 / 40320,
-                                 1.0 / 362880,
-                                 1.0 / 3628800,
-                                 1.0 / 39916800,
-                                 1.0 / 479001600,
-                                 1.0 / 6227020800.0,
-                                 1.0 / 87178291200.0,
-                                 1.0 / 1307674368000.0,
-                                 1.0 / 20922789888000.0,
-                                 1.0 / 355687428096000.0};
+  double c = kInvFactorial[18], sn = kInvFactorial[19];
   for (int k = 16; k >= 0; k -= 2) {  // Horner in x^2, alternating signs
-    c = kInvFact[k] - x2 * c;
-    sn = kInvFact[k + 1] - x2 * sn;
+    c = kInvFactorial[k] - x2 * c;
+    sn = kInvFactorial[k + 1] - x2 * sn;
   }
   *c_out = c;
   *s_out = sn * x;

@@ -350,20 +350,17 @@ Response Api::create_study(const Request& r) const {
 Response Api::list_studies(const Request& r) const {
   const std::string instance = "/v1/studies";
   Response error;
-  const auto page_size =
-      detail::page_size_param(r, options_.default_page_size, options_.max_page_size, &error);
-  if (!page_size) return error;
-  const auto after = detail::id_page_token_param(r, &error);
-  if (!after) return error;
+  const auto page = detail::id_page_params(r, options_.default_page_size,
+                                           options_.max_page_size, &error);
+  if (!page) return error;
   try {
     auto store = pool_.acquire();
-    auto rows = store->list_studies(*page_size + 1, *after);
+    auto rows = store->list_studies(page->size + 1, page->after);
+    const json next = detail::take_id_page(rows, page->size);
     json out = {{"studies", json::array()}};
-    const bool more = rows.size() > *page_size;
-    if (more) rows.pop_back();
     for (const auto& rec : rows)
       out["studies"].push_back(study_json(rec, store->count_runs(rec.id), false));
-    out["next_page_token"] = more ? json(rows.back().id) : json(nullptr);
+    out["next_page_token"] = next;
     return json_response(200, out);
   } catch (const StoreError& e) {
     return store_failure(e, instance);

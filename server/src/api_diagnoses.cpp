@@ -152,19 +152,16 @@ Response Api::create_diagnosis(const Request& r) const {
 
 Response Api::list_diagnoses(const Request& r) const {
   Response error;
-  const auto page_size =
-      detail::page_size_param(r, options_.default_page_size, options_.max_page_size, &error);
-  if (!page_size) return error;
-  const auto after = detail::id_page_token_param(r, &error);
-  if (!after) return error;
+  const auto page = detail::id_page_params(r, options_.default_page_size,
+                                           options_.max_page_size, &error);
+  if (!page) return error;
   try {
     auto store = pool_.acquire();
-    auto rows = store->list_diagnoses(*page_size + 1, *after);
-    const bool more = rows.size() > *page_size;
-    if (more) rows.pop_back();
+    auto rows = store->list_diagnoses(page->size + 1, page->after);
+    const json next = detail::take_id_page(rows, page->size);
     json out = {{"diagnoses", json::array()}};
     for (const auto& rec : rows) out["diagnoses"].push_back(diagnosis_json(rec, false));
-    out["next_page_token"] = more ? json(rows.back().id) : json(nullptr);
+    out["next_page_token"] = next;
     return json_response(200, out);
   } catch (const StoreError& e) {
     return detail::store_failure(e, kCollection);

@@ -56,10 +56,13 @@ Response not_acceptable(const Request& r, bool csv_allowed) {
                  r.path());
 }
 
-std::optional<std::string> id_page_token_param(const Request& r, Response* error) {
+std::optional<IdPage> id_page_params(const Request& r, std::size_t fallback_size,
+                                     std::size_t max_size, Response* error) {
+  const auto size = page_size_param(r, fallback_size, max_size, error);
+  if (!size) return std::nullopt;
   const auto q = r.query();
   const auto t = q.find("page_token");
-  if (t == q.end()) return std::string();
+  if (t == q.end()) return IdPage{*size, ""};
   if (!is_valid_id(t->second)) {
     *error = problem(400, "invalid-parameter", "Invalid query parameter",
                      "page_token is not a token returned by this endpoint",
@@ -67,7 +70,7 @@ std::optional<std::string> id_page_token_param(const Request& r, Response* error
                      r.path());
     return std::nullopt;
   }
-  return t->second;
+  return IdPage{*size, t->second};
 }
 
 std::optional<std::size_t> page_size_param(const Request& r, std::size_t fallback,

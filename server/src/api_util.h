@@ -3,6 +3,7 @@
 
 #include <optional>
 #include <string>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -25,9 +26,25 @@ Response not_acceptable(const Request& r, bool csv_allowed);
 std::optional<std::size_t> page_size_param(const Request& r, std::size_t fallback,
                                            std::size_t max, Response* error);
 
-/// The optional page_token of a list keyed by id (studies, diagnoses): the id to list after, ""
-/// when absent; nullopt with the 400 problem in *error when it is not an id.
-std::optional<std::string> id_page_token_param(const Request& r, Response* error);
+/// Page of a list keyed by id (studies, diagnoses): page_size (page_size_param) and the optional
+/// page_token, the id to list after ("" when absent).
+struct IdPage {
+  std::size_t size = 0;
+  std::string after;
+};
+/// nullopt with the 400 problem in *error when page_size is bad or page_token is not an id.
+std::optional<IdPage> id_page_params(const Request& r, std::size_t fallback_size,
+                                     std::size_t max_size, Response* error);
+
+/// rows were read with a limit of page_size + 1 (one row more than a page, to know whether
+/// another page follows): drops that extra row, and returns the next page token (the id of the
+/// last row kept) or null when this is the last page.
+template <class Row>
+nlohmann::json take_id_page(std::vector<Row>& rows, std::size_t page_size) {
+  if (rows.size() <= page_size) return nullptr;
+  rows.resize(page_size);
+  return rows.back().id;
+}
 
 /// Ids of studies and diagnoses: 1 to 128 of [A-Za-z0-9._-].
 bool is_valid_id(const std::string& id);

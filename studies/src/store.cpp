@@ -477,9 +477,8 @@ std::string read_schema_version(const Connection& conn) {
 ///  2 -> 3: adds the run counters of each study (filled from its runs), their triggers, and
 ///          v_study_progress reading them.
 void migrate_step(const Connection& conn, int from) {
-  const std::string doing = "migrating the schema from version " + std::to_string(from) +
-                            " to " + std::to_string(from + 1);
-  Transaction tx(conn, Transaction::Kind::kWrite, doing);
+  const std::string step = "from version " + std::to_string(from) + " to " + std::to_string(from + 1);
+  Transaction tx(conn, Transaction::Kind::kWrite, "migrating the schema " + step);
   if (read_schema_version(conn) == std::to_string(from)) {
     if (from == 1) conn.exec(kDiagnosesSql, "creating the diagnoses table (schema version 2)");
     else conn.exec(kRunCountersSql, "adding the run counters (schema version 3)");
@@ -490,7 +489,7 @@ void migrate_step(const Connection& conn, int from) {
                  "writing meta.migrated_at");
     st.bind_text(1, utc_now_iso8601()).run();
   }
-  tx.commit("the schema " + doing.substr(std::string("migrating the schema ").size()));
+  tx.commit("the schema migration " + step);
 }
 
 /// Accepts this build's version; a read-write open migrates an older database step by step

@@ -12,6 +12,7 @@
 #include <set>
 #include <thread>
 
+#include "daemon.h"
 #include "process.h"
 #include "stickslip/studies/store.h"
 #include "test_support.h"
@@ -28,8 +29,11 @@ using testing::run_command;
 using testing::slurp;
 using testing::TempDir;
 
-const std::string kServerBin = std::string(STICKSLIP_BINARY_DIR) + "/server/stickslipd";
-const std::string kClientBin = std::string(STICKSLIP_BINARY_DIR) + "/client/stickslip";
+using testing::Curl;
+using testing::curl;
+using testing::Daemon;
+using testing::kClientBin;
+using testing::kServerBin;
 
 /// A study of n_va x 2 models runs of two stages of `duration` s each (adaptive integrator).
 std::string study_json(const std::string& name, int n_va, double duration) {
@@ -41,54 +45,6 @@ std::string study_json(const std::string& name, int n_va, double duration) {
                   {{{"name", "model"}, {"values", {"dahl", "lugre"}}},
                    {{"name", "va_over_vd"}, {"linspace", {0, 4, n_va}}}}}}}})
       .dump(2);
-}
-
-/// A running stickslipd on an ephemeral port.
-class Daemon {
- public:
-  Daemon(const fs::path& dir, const std::vector<std::string>& extra = {},
-         const std::vector<std::string>& env = {}) {
-    const fs::path port_file = dir / "port";
-    fs::remove(port_file);
-    std::vector<std::string> argv = {kServerBin, "--db", (dir / "e2e.db").string(), "--port", "0",
-                                     "--port-file", port_file.string(), "--threads", "2"};
-    argv.insert(argv.end(), extra.begin(), extra.end());
-    static int n = 0;
-    proc_ = std::make_unique<Process>(argv, (dir / ("daemon" + std::to_string(n++))).string(), env);
-    for (int i = 0; i < 1000 && !fs::exists(port_file); ++i) {
-      if (proc_->wait(0ms)) break;
-      std::this_thread::sleep_for(10ms);
-    }
-    if (!fs::exists(port_file)) throw std::runtime_error("stickslipd did not start: " + proc_->err());
-    port_ = std::stoi(slurp(port_file));
-    url_ = "http://127.0.0.1:" + std::to_string(port_);
-  }
-  const std::string& url() const { return url_; }
-  Process& process() { return *proc_; }
-
- private:
-  std::unique_ptr<Process> proc_;
-  int port_ = 0;
-  std::string url_;
-};
-
-struct Curl {
-  int status = 0;
-  std::string body, headers;
-};
-
-Curl curl(const fs::path& dir, const std::vector<std::string>& args) {
-  const fs::path body = dir / "curl.body", headers = dir / "curl.headers";
-  std::vector<std::string> argv = {"curl", "-sS", "-o", body.string(), "-D", headers.string(),
-                                   "-w", "%{http_code}"};
-  argv.insert(argv.end(), args.begin(), args.end());
-  const CommandResult r = run_command(argv, dir);
-  EXPECT_EQ(r.code, 0) << r.err;
-  Curl c;
-  c.status = std::atoi(r.out.c_str());
-  c.body = slurp(body);
-  c.headers = slurp(headers);
-  return c;
 }
 
 json get_json(const fs::path& dir, const std::string& url) {

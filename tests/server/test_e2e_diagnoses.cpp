@@ -9,6 +9,7 @@
 #include <fstream>
 #include <thread>
 
+#include "daemon.h"
 #include "process.h"
 #include "stickslip/studies/store.h"
 #include "stickslip/studies/synth.h"
@@ -26,50 +27,15 @@ using testing::run_command;
 using testing::slurp;
 using testing::TempDir;
 
-const std::string kServerBin = std::string(STICKSLIP_BINARY_DIR) + "/server/stickslipd";
-const std::string kClientBin = std::string(STICKSLIP_BINARY_DIR) + "/client/stickslip";
-
-/// stickslipd on an ephemeral port over dir/e2e.db.
-class Daemon {
- public:
-  explicit Daemon(const fs::path& dir) {
-    const fs::path port_file = dir / "port";
-    fs::remove(port_file);
-    static int n = 0;
-    proc_ = std::make_unique<Process>(
-        std::vector<std::string>{kServerBin, "--db", (dir / "e2e.db").string(), "--port", "0",
-                                 "--port-file", port_file.string(), "--diagnosis-threads", "2",
-                                 "--diagnosis-grace", "0"},
-        (dir / ("diag-daemon" + std::to_string(n++))).string());
-    for (int i = 0; i < 1000 && !fs::exists(port_file); ++i) {
-      if (proc_->wait(0ms)) break;
-      std::this_thread::sleep_for(10ms);
-    }
-    if (!fs::exists(port_file)) throw std::runtime_error("stickslipd did not start: " + proc_->err());
-    url_ = "http://127.0.0.1:" + std::to_string(std::stoi(slurp(port_file)));
-  }
-  const std::string& url() const { return url_; }
-  Process& process() { return *proc_; }
-
- private:
-  std::unique_ptr<Process> proc_;
-  std::string url_;
-};
-
-/// curl: status code and body.
-std::pair<int, std::string> curl(const fs::path& dir, const std::vector<std::string>& args) {
-  const fs::path body = dir / "curl.body";
-  std::vector<std::string> argv = {"curl", "-sS", "-o", body.string(), "-w", "%{http_code}"};
-  argv.insert(argv.end(), args.begin(), args.end());
-  const CommandResult r = run_command(argv, dir);
-  EXPECT_EQ(r.code, 0) << r.err;
-  return {std::atoi(r.out.c_str()), slurp(body)};
-}
+using testing::Curl;
+using testing::curl;
+using testing::Daemon;
+using testing::kClientBin;
 
 json get_diagnosis(const fs::path& dir, const std::string& url, const std::string& id) {
-  const auto [status, body] = curl(dir, {url + "/v1/diagnoses/" + id});
-  EXPECT_EQ(status, 200) << body;
-  return json::parse(body);
+  const Curl c = curl(dir, {url + "/v1/diagnoses/" + id});
+  EXPECT_EQ(c.status, 200) << c.body;
+  return json::parse(c.body);
 }
 
 class DiagnosesEndToEnd : public ::testing::Test {
@@ -97,7 +63,7 @@ class DiagnosesEndToEnd : public ::testing::Test {
 
 TEST_F(DiagnosesEndToEnd, ClientSubmitsWaitsAndWritesTheStoredResultAndCurlGetsProblems) {
   const fs::path manifest = write_dataset();
-  Daemon d(dir_.path());
+  Daemon d(dir_.path(), {"--diagnosis-threads", "2", "--diagnosis-grace", "0"});
   std::vector<std::string> argv = {kClientBin, "diagnose", manifest.string(), "--server", d.url(),
                                    "--wait", "--json", "--out", (dir_ / "out").string()};
   for (const auto& a : small_options()) argv.push_back(a);
@@ -129,17 +95,17 @@ TEST_F(DiagnosesEndToEnd, ClientSubmitsWaitsAndWritesTheStoredResultAndCurlGetsP
   const json bad = {{"manifest", m},
                     {"files", {{f0, csv}, {f1, slurp(dir_ / "data" / f1)}}}};
   std::ofstream(dir_ / "bad.json") << bad.dump();
-  const auto [status, body] =
+  const Curl bad_post =
       curl(dir_.path(), {"-X", "POST", "-H", "Content-Type: application/json", "--data-binary",
                          "@" + (dir_ / "bad.json").string(), d.url() + "/v1/diagnoses"});
-  EXPECT_EQ(status, 422) << body;
-  const json p = json::parse(body);
-  EXPECT_EQ(p["errors"][0]["pointer"], "/files/" + f0) << body;
+  EXPECT_EQ(bad_post.status, 422) << bad_post.body;
+  const json p = json::parse(bad_post.body);
+  EXPECT_EQ(p["errors"][0]["pointer"], "/files/" + f0) << bad_post.body;
   EXPECT_NE(p["errors"][0]["detail"].get<std::string>().find(f0 + ":3:"), std::string::npos)
-      << body;
-  const auto [mstatus, metrics] = curl(dir_.path(), {d.url() + "/metrics"});
-  EXPECT_EQ(mstatus, 200);
-  EXPECT_NE(metrics.find("stickslip_diagnoses{state=\"succeeded\"} 1"), std::string::npos);
+      << bad_post.body;
+  const Curl metrics = curl(dir_.path(), {d.url() + "/metrics"});
+  EXPECT_EQ(metrics.status, 200);
+  EXPECT_NE(metrics.body.find("stickslip_diagnoses{state=\"succeeded\"} 1"), std::string::npos);
 
   d.process().signal(SIGTERM);
   EXPECT_EQ(d.process().wait(60s), 0) << d.process().err();
@@ -149,7 +115,7 @@ TEST_F(DiagnosesEndToEnd, SigtermDuringADiagnosisExitsZeroAndTheNextStartRunsIt)
   const fs::path manifest = write_dataset();
   std::string id;
   {
-    Daemon d(dir_.path());
+    Daemon d(dir_.path(), {"--diagnosis-threads", "2", "--diagnosis-grace", "0"});
     std::vector<std::string> argv = {kClientBin, "diagnose", manifest.string(), "--server",
                                      d.url()};
     for (const auto& a : small_options()) argv.push_back(a);
@@ -171,7 +137,7 @@ TEST_F(DiagnosesEndToEnd, SigtermDuringADiagnosisExitsZeroAndTheNextStartRunsIt)
     auto store = studies::Store::open(dir_ / "e2e.db", studies::Store::Mode::kReadOnly);
     EXPECT_EQ(store.get_diagnosis(id)->state, studies::StudyState::kQueued);
   }
-  Daemon d(dir_.path());
+  Daemon d(dir_.path(), {"--diagnosis-threads", "2", "--diagnosis-grace", "0"});
   const CommandResult w =
       run_command({kClientBin, "diagnosis", id, "--server", d.url(), "--wait", "--json"},
                   dir_.path(), {}, 600s);

@@ -38,25 +38,27 @@ inline double fmadd(double a, double b, double c) noexcept {
 #endif
 }
 
+/// 1 / k! for k = 0 ... 19 (every entry is the double nearest to 1/k!; the factorials up to 19!
+/// are exact in double). The Taylor coefficients of exp_vectorizable and of the adaptive
+/// integrator's small-angle sin/cos.
+inline constexpr double kInvFactorial[20] = {
+    1.0,                    1.0,
+    1.0 / 2,                1.0 / 6,
+    1.0 / 24,               1.0 / 120,
+    1.0 / 720,              1.0 / 5040,
+    1.0 / 40320,            1.0 / 362880,
+    1.0 / 3628800,          1.0 / 39916800,
+    1.0 / 479001600,        1.0 / 6227020800.0,
+    1.0 / 87178291200.0,    1.0 / 1307674368000.0,
+    1.0 / 20922789888000.0, 1.0 / 355687428096000.0,
+    1.0 / 6402373705728000.0, 1.0 / 121645100408832000.0};
+
 inline double exp_vectorizable(double x) noexcept {
   constexpr double kLog2e = 1.4426950408889634074;
   constexpr double kShift = 0x1.8p52;                    // 1.5 * 2^52
   constexpr double kLn2Hi = 6.93147180369123816490e-01;  // fdlibm ln2_hi (33 bits)
   constexpr double kLn2Lo = 1.90821492927058770002e-10;  // ln 2 - ln2_hi
-  // c[i] = 1 / (i+1)!
-  constexpr double c[13] = {1.0,
-                            1.0 / 2,
-                            1.0 / 6,
-                            1.0 / 24,
-                            1.0 / 120,
-                            1.0 / 720,
-                            1.0 / 5040,
-                            1.0 / 40320,
-                            1.0 / 362880,
-                            1.0 / 3628800,
-                            1.0 / 39916800,
-                            1.0 / 479001600,
-                            1.0 / 6227020800.0};
+  constexpr const double* c = kInvFactorial + 1;  // c[i] = 1 / (i+1)!, i = 0 ... 12
   const double kd = fmadd(x, kLog2e, kShift);
   const double n = kd - kShift;
   const double r = fmadd(-n, kLn2Lo, fmadd(-n, kLn2Hi, x));

@@ -30,8 +30,8 @@ struct HiddenCase {
   bool small = false;   ///< too small to see: "none" or the right cause, never a wrong one
   double noise = 0.03;  ///< [N]
   double noise_rho = 0; ///< AR(1) coefficient [-]
-  /// Passes reliably (every seed) with the current method, so it runs in default CI; the others
-  /// fail today and run only with STICKSLIP_DIAGNOSE_SUITE (docs/diagnose.md "Status").
+  /// Runs in default CI; the others run only with STICKSLIP_DIAGNOSE_SUITE (docs/diagnose.md
+  /// "Status on main").
   bool in_ci = false;
   /// Further parameters of the hidden effect (engine names, SI), e.g. {"load_phi", 1.0}.
   std::vector<std::pair<std::string, double>> more = {};
