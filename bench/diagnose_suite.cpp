@@ -3,8 +3,10 @@
 // cause, held-out gain, recovered size parameter) and the confusion table (true effect x named
 // cause, counts over seeds).
 //
-//   diagnose_suite [--full] [--verbose] [--seeds N] [--case NAME]...
-//   --full: the full datasets (3 runs x 8 s at 2 kHz, every base model); default: the CI datasets.
+//   diagnose_suite [--full | --seed-conditions] [--verbose] [--seeds N] [--first-seed K] [--case NAME]...
+//   --full: the full datasets (3 runs x 7 s at 2 kHz, every base model); --seed-conditions: the
+//   seed's conditions for every case (3 runs x 20 s, v_a = 0, 1.1, 4 mm/s, LuGre base);
+//   default: the CI datasets (SuiteDatasets in stickslip/studies/diagnose_suite.h).
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -20,11 +22,13 @@ using namespace stickslip;
 using namespace stickslip::studies;
 
 int main(int argc, char** argv) {
-  bool full = false, verbose = false;
+  SuiteDatasets family = SuiteDatasets::kCi;
+  bool verbose = false;
   int seeds = 3, first = 0;  // seeds 1000 + first ... 1000 + first + seeds - 1
   std::vector<std::string> only;
   for (int i = 1; i < argc; ++i) {
-    if (!std::strcmp(argv[i], "--full")) full = true;
+    if (!std::strcmp(argv[i], "--full")) family = SuiteDatasets::kFull;
+    else if (!std::strcmp(argv[i], "--seed-conditions")) family = SuiteDatasets::kSeed;
     else if (!std::strcmp(argv[i], "--verbose")) verbose = true;
     else if (!std::strcmp(argv[i], "--time-sim")) {  // cost of one fitting simulation per v_a
       for (double rtol : {1e-5, 1e-4, 1e-3})
@@ -45,7 +49,7 @@ int main(int argc, char** argv) {
     else if (!std::strcmp(argv[i], "--first-seed") && i + 1 < argc) first = std::atoi(argv[++i]);
     else if (!std::strcmp(argv[i], "--case") && i + 1 < argc) only.push_back(argv[++i]);
     else {
-      std::fprintf(stderr, "usage: diagnose_suite [--full] [--verbose] [--seeds N] [--first-seed K] [--case NAME]...\n");
+      std::fprintf(stderr, "usage: diagnose_suite [--full | --seed-conditions] [--verbose] [--seeds N] [--first-seed K] [--case NAME]...\n");
       return 2;
     }
   }
@@ -62,8 +66,8 @@ int main(int argc, char** argv) {
     if (!only.empty() && std::find(only.begin(), only.end(), c.name) == only.end()) continue;
     rows.push_back(c.name);
     for (int s = first; s < first + seeds; ++s) {
-      const Diagnosis d = diagnose(synthesize(hidden_case_dataset(c, 1000 + s, full)),
-                                   hidden_case_options(full));
+      const Diagnosis d = diagnose(synthesize(hidden_case_dataset(c, 1000 + s, family)),
+                                   hidden_case_options(family));
       const HiddenVerdict v = judge(c, d);
       ++table[c.name][d.cause];
       ++total;

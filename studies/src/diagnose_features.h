@@ -22,6 +22,13 @@
 // Residuals: k_d v_d (t_k^meas - t_k^sim) [N], P, Q and block-mean differences [N] (minus
 // their mean when a sensor offset is fitted); every slip of one signal without a partner in the
 // other costs (peak-to-peak)^2.
+//
+// Windows after the first switch (still -> vibrating, or a later still window) are scored with
+// the simulated switch moved to the measured phase of the still stage's cycle (diagnose_fit.cpp,
+// phase_shift; RunData::anchor_tau): the next stage's transient starts from the state the
+// cycle is in at the switch, and after a long still stage that phase turns through whole cycles
+// as the parameters change (1 % of F_S is about one cycle after 10 s), which made the objective
+// ripple and the fits stop in a ripple (tests/studies/test_diagnose_features.cpp).
 
 #include <vector>
 

@@ -3,6 +3,7 @@
 // the parameterisation of models and extensions, objective evaluation and the NLopt driver.
 
 #include <cstdint>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -25,6 +26,13 @@ struct RunData {
   double fit_end = 0;                ///< last fitted time [s]
   std::vector<WindowSpec> windows;   ///< fitted part of every stage, for the features
   Features features;                 ///< of the measured signal at its full rate
+  /// Phase of the still stage's stick-slip cycle at the first switch (still -> next stage), for
+  /// the feature objective: the time since the last slip at t_on [s], predicted from the
+  /// measured slips of the first feature window (fit data): the last one plus whole mean periods
+  /// of its second half (the settled cycle). NaN: no alignment (one stage, or fewer than four
+  /// slips). anchor_t = t_on [s].
+  double anchor_tau = std::numeric_limits<double>::quiet_NaN();
+  double anchor_t = 0;
 };
 
 struct Problem {

@@ -77,7 +77,8 @@ std::vector<HiddenCase> hidden_effect_cases() {
   return c;
 }
 
-SynthOptions hidden_case_dataset(const HiddenCase& c, std::uint64_t seed, bool full) {
+SynthOptions hidden_case_dataset(const HiddenCase& c, std::uint64_t seed, SuiteDatasets family) {
+  const bool full = family == SuiteDatasets::kFull, seed_cond = family == SuiteDatasets::kSeed;
   SynthOptions o;
   o.name = c.name;
   o.model = SimConfig::seed(ModelKind::kLuGre, 0.0);
@@ -90,17 +91,20 @@ SynthOptions hidden_case_dataset(const HiddenCase& c, std::uint64_t seed, bool f
   for (const auto& [name, value] : c.more) set_parameter(o.model, name, value);
   std::vector<double> vas = full ? std::vector<double>{1.5e-3, 3e-3, 5e-3}
                                  : std::vector<double>{1.5e-3, 5e-3};
-  if (!c.own_va.empty()) vas = c.own_va;
+  if (seed_cond) vas = {0.0, 1.1e-3, 4e-3};
+  else if (!c.own_va.empty()) vas = c.own_va;
   for (double va : vas) {
-    MeasuredConditions m;
+    MeasuredConditions m;  // the seed's t_on = 10 s, duration = 20 s
     m.va = va;
-    m.t_on = full ? 4.0 : 3.0;
-    m.duration = full ? 7.0 : 4.5;
-    if (c.own_t_on > 0) m.t_on = c.own_t_on;
-    if (c.own_duration > 0) m.duration = c.own_duration;
+    if (!seed_cond) {
+      m.t_on = full ? 4.0 : 3.0;
+      m.duration = full ? 7.0 : 4.5;
+      if (c.own_t_on > 0) m.t_on = c.own_t_on;
+      if (c.own_duration > 0) m.duration = c.own_duration;
+    }
     o.runs.push_back(m);
   }
-  o.rate = full ? 2000.0 : 1000.0;
+  o.rate = family == SuiteDatasets::kCi ? 1000.0 : 2000.0;
   o.noise_sigma = c.noise;
   o.noise_rho = c.noise_rho;
   o.offset = 0.1;
@@ -109,9 +113,9 @@ SynthOptions hidden_case_dataset(const HiddenCase& c, std::uint64_t seed, bool f
   return o;
 }
 
-DiagnoseOptions hidden_case_options(bool full) {
+DiagnoseOptions hidden_case_options(SuiteDatasets family) {
   DiagnoseOptions d;
-  if (!full) d.models = {ModelKind::kLuGre};
+  if (family != SuiteDatasets::kFull) d.models = {ModelKind::kLuGre};
   return d;
 }
 

@@ -32,8 +32,8 @@ const HiddenCase& clean_case() {
 // own (their starts are spectral peaks, phase grids and sensor time constants), with a small
 // budget so that their fits are far from converged.
 TEST(DiagnoseScoring, NestedCandidateNeverFitsWorseThanItsBase) {
-  const MeasuredDataset data = synthesize(hidden_case_dataset(clean_case(), 1001, false));
-  DiagnoseOptions o = hidden_case_options(false);
+  const MeasuredDataset data = synthesize(hidden_case_dataset(clean_case(), 1001, SuiteDatasets::kCi));
+  DiagnoseOptions o = hidden_case_options(SuiteDatasets::kCi);
   o.candidates = {ExtensionKind::kWaviness, ExtensionKind::kNormalLoadModulation,
                   ExtensionKind::kSensorDynamics};
   o.max_evals_candidate = 16;

@@ -22,8 +22,8 @@ HiddenCase waviness_case() {
 }
 
 diag::Problem problem_of(const HiddenCase& c, std::uint64_t seed) {
-  return diag::make_problem(synthesize(hidden_case_dataset(c, seed, false)),
-                            hidden_case_options(false));
+  return diag::make_problem(synthesize(hidden_case_dataset(c, seed, SuiteDatasets::kCi)),
+                            hidden_case_options(SuiteDatasets::kCi));
 }
 
 double wrap(double a) { return std::remainder(a, 2 * M_PI); }

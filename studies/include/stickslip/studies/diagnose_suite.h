@@ -55,13 +55,21 @@ inline void PrintTo(const HiddenCase& c, std::ostream* os) { *os << c.name; }
 /// effects too small to see.
 std::vector<HiddenCase> hidden_effect_cases();
 
-/// The synthetic dataset of a case for a seed. full = false: the short CI datasets
-/// (2 runs x 4.5 s, t_on = 3 s, 1 kHz); full = true: 3 runs x 7 s, t_on = 4 s, at 2 kHz.
-SynthOptions hidden_case_dataset(const HiddenCase& c, std::uint64_t seed, bool full);
+/// The suite's dataset families.
+enum class SuiteDatasets {
+  kCi,    ///< 2 runs x 4.5 s, t_on = 3 s, v_a = 1.5 and 5 mm/s, 1 kHz (default CI)
+  kFull,  ///< 3 runs x 7 s, t_on = 4 s, v_a = 1.5, 3 and 5 mm/s, 2 kHz
+  /// The seed's conditions for every case (own conditions ignored): 3 runs x 20 s, t_on = 10 s,
+  /// v_a = 0, 1.1 and 4 mm/s, 2 kHz, as the speed benchmark (bench/bench_diagnose.cpp).
+  kSeed,
+};
 
-/// Diagnosis options used by the suite: LuGre-only base in CI (full = false), every base model
-/// when full = true.
-DiagnoseOptions hidden_case_options(bool full);
+/// The synthetic dataset of a case for a seed.
+SynthOptions hidden_case_dataset(const HiddenCase& c, std::uint64_t seed, SuiteDatasets family);
+
+/// Diagnosis options used by the suite: every base model for kFull, the LuGre base only for the
+/// others (CI time; kSeed: an hour for the suite otherwise).
+DiagnoseOptions hidden_case_options(SuiteDatasets family);
 
 /// What the diagnosis said against what it had to say.
 struct HiddenVerdict {
