@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <nlopt.hpp>
 #include <stdexcept>
 
@@ -211,19 +212,51 @@ Evaluation evaluate(const Problem& p, const FitModel& m, const std::vector<doubl
   Evaluation e;
   e.sims.resize(p.runs.size());
   std::vector<double> feat_level, feat_other;
+  // Simulated still stages at theta (runs' own traces or phase-only simulations), for the phase
+  // of the runs that vibrate after t_on; own_still and kept own them.
+  std::vector<std::pair<const RunData*, const std::vector<TraceSample>*>> still;
+  std::vector<std::unique_ptr<std::vector<TraceSample>>> own_still;
+  std::vector<std::unique_ptr<SimResult>> kept;
   for (std::size_t k = 0; k < p.runs.size(); ++k) {
     const RunData& r = p.runs[k];
     const double t_end = span_end(r, span, short_end);
     SimConfig cfg;
     double shift = 0;  // switch moved by this to the measured phase (features only) [s]
+    const bool align = span == Span::kFeatures && std::isfinite(r.anchor_tau) && r.windows.size() > 1;
+    bool all_still = true;
+    auto held = std::make_unique<SimResult>();  // kept in `kept` when `still` points into it
+    SimResult& res = *held;
+    bool shared = false;
     try {
       cfg = m.config(r, theta, t_end, p.rtol);
-      if (span == Span::kFeatures && std::isfinite(r.anchor_tau) && r.windows.size() > 1) {
-        // The still stage simulated one period and the slip's ramp window past t_on.
+      for (const Stage& st : cfg.stages) all_still = all_still && !st.vibrating();
+      if (align && all_still) {
+        // Still after t_on too: the switch is nominal, so the run's own trace gives the phase
+        // and, on the shifted clock, the later windows; it also serves the vibrating runs.
+        res = simulate(cfg);
+        if (res.status == RunStatus::kOk && !res.trace.empty()) {
+          shift = phase_shift(r, res.trace);
+          still.push_back({&r, &res.trace});
+          shared = true;
+        }
+      } else if (align) {
+        // The still stage simulated one period and the slip's ramp window past t_on: shared by
+        // the runs with the same still stage (the same m, k_d, v_d and t_on).
         const double t_a = r.anchor_t + search_span(r) + 0.2;
-        const SimResult a =
-            simulate(switched_at(m.config(r, theta, r.cond.duration, p.rtol), t_a, t_a));
-        if (a.status == RunStatus::kOk) shift = phase_shift(r, a.trace);
+        const std::vector<TraceSample>* tr = nullptr;
+        for (const auto& [q, qt] : still)
+          if (q->cond.m == r.cond.m && q->cond.kd == r.cond.kd && q->cond.vd == r.cond.vd &&
+              q->anchor_t == r.anchor_t && !qt->empty() && qt->back().t >= t_a)
+            tr = qt;
+        if (!tr) {
+          SimResult a = simulate(switched_at(m.config(r, theta, r.cond.duration, p.rtol), t_a, t_a));
+          if (a.status == RunStatus::kOk) {
+            own_still.push_back(std::make_unique<std::vector<TraceSample>>(std::move(a.trace)));
+            tr = own_still.back().get();
+            still.push_back({&r, tr});
+          }
+        }
+        if (tr) shift = phase_shift(r, *tr);
         if (shift != 0) cfg = switched_at(m.config(r, theta, r.cond.duration, p.rtol),
                                           r.anchor_t + shift, t_end + shift);
       }
@@ -231,7 +264,7 @@ Evaluation evaluate(const Problem& p, const FitModel& m, const std::vector<doubl
       e.reason = ex.what();
       return e;
     }
-    const SimResult res = simulate(cfg);
+    if (!(align && all_still)) res = simulate(cfg);
     RunSim& s = e.sims[k];
     if (res.status != RunStatus::kOk || res.trace.size() < 2) {
       e.reason = "run " + r.name + ": " + to_string(res.status) + " " + res.reason;
@@ -281,6 +314,7 @@ Evaluation evaluate(const Problem& p, const FitModel& m, const std::vector<doubl
       s.v.push_back(a.v + w * (b.v - a.v));
     }
     s.ok = true;
+    if (shared) kept.push_back(std::move(held));
   }
   double sum = 0;
   std::size_t n = 0;
