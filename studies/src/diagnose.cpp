@@ -560,9 +560,12 @@ Diagnosis diagnose(const MeasuredDataset& data, const DiagnoseOptions& o) {
   }
   const double v_slip = slip_velocity(P, base.full);
   double base_feature_sse = std::numeric_limits<double>::infinity();  // profile size 0
-  if (const Evaluation e = evaluate(P, base.model, base.theta, Span::kFeatures, 0); e.ok) {
-    base_feature_sse = e.sse_fit;
+  if (std::any_of(o.candidates.begin(), o.candidates.end(), [](ExtensionKind k) {
+        return k == ExtensionKind::kViscous || k == ExtensionKind::kDriveDamping;
+      })) {  // only the slip-velocity candidates' profile bisection uses it
+    const Evaluation e = evaluate(P, base.model, base.theta, Span::kFeatures, 0);
     ++d.evaluations;
+    if (e.ok) base_feature_sse = e.sse_fit;
   }
   const std::size_t nb = base.theta.size();
   std::vector<CandFit> cands(o.candidates.size());
@@ -583,7 +586,8 @@ Diagnosis diagnose(const MeasuredDataset& data, const DiagnoseOptions& o) {
       // starting size gets its own profile start: the base parameters refitted on the
       // features with the extension held at that size.
       const ExtensionKind kind = o.candidates[i];
-      const bool profile = kind == ExtensionKind::kViscous || kind == ExtensionKind::kDriveDamping ||
+      const bool slip_velocity = kind == ExtensionKind::kViscous || kind == ExtensionKind::kDriveDamping;
+      const bool profile = slip_velocity ||
                            kind == ExtensionKind::kStribeckShape || kind == ExtensionKind::kDwellTime;
       auto ext_starts = extension_starts(kind, ext, ev, scan, F_C0);
       bool wave_profile = false;
@@ -608,7 +612,7 @@ Diagnosis diagnose(const MeasuredDataset& data, const DiagnoseOptions& o) {
           std::vector<std::vector<double>> origins = {base.theta};
           if (kind == ExtensionKind::kDwellTime)
             origins.push_back(dwell_origin(base.model, base.theta, es[0], es[1], still_period));
-          if (kind == ExtensionKind::kViscous || kind == ExtensionKind::kDriveDamping)
+          if (slip_velocity)
             origins.push_back(slip_velocity_origin(base.model, base.theta, es[0], v_slip));
           const FitResult pr = fit(P, pm, origins, Span::kFeatures, 0, o.max_evals_profile);
           c.res.evals += pr.evals;
@@ -624,7 +628,6 @@ Diagnosis diagnose(const MeasuredDataset& data, const DiagnoseOptions& o) {
           // profile start with v_s held at its nominal value (the spec's start, Table 1) and
           // the other base parameters refitted; phase B then picks the better start by the
           // time-domain objective.
-          const bool slip_velocity = kind == ExtensionKind::kViscous || kind == ExtensionKind::kDriveDamping;
           std::size_t iv = nb;
           for (std::size_t j = 0; j < nb; ++j)
             if (base.model.specs[j].name == "v_s") iv = j;
@@ -648,7 +651,7 @@ Diagnosis diagnose(const MeasuredDataset& data, const DiagnoseOptions& o) {
         th.insert(th.end(), es.begin(), es.end());
         starts.push_back(th);
       }
-      if (kind == ExtensionKind::kViscous || kind == ExtensionKind::kDriveDamping) {
+      if (slip_velocity) {
         // The size grid is coarse (20, 60, 150) and the profile's minimum narrow on long still
         // stages: refine it by bisection between the best size and its better neighbour.
         for (int step = 0; step < 3; ++step) {

@@ -151,6 +151,16 @@ bool counts(const RunData& r, std::size_t i, Span span, double short_end) {
   return span != Span::kShort || r.t[i] < short_end;
 }
 
+/// The samples of a trace with from <= t < to, as columns on the clock t - shift [s], F_d [N].
+void trace_columns(const std::vector<TraceSample>& tr, double from, double to, double shift,
+                   std::vector<double>* t, std::vector<double>* F) {
+  for (const TraceSample& q : tr)
+    if (q.t >= from && q.t < to) {
+      t->push_back(q.t - shift);
+      F->push_back(q.F_d);
+    }
+}
+
 /// Length of the phase search around the switch [s]: the measured mean still-stage period
 /// (first window's slips), or 1 s when it has fewer than two.
 double search_span(const RunData& r) {
@@ -171,11 +181,7 @@ double phase_shift(const RunData& r, const std::vector<TraceSample>& tr) {
   w.t0 = std::max(0.0, r.anchor_t - 2 * T);
   w.t1 = tr.back().t;
   std::vector<double> t, F;
-  for (const TraceSample& q : tr)
-    if (q.t >= w.t0) {
-      t.push_back(q.t);
-      F.push_back(q.F_d);
-    }
+  trace_columns(tr, w.t0, std::numeric_limits<double>::infinity(), 0.0, &t, &F);
   const Features f = extract_features(t, F, {w}, r.cond.kd * r.cond.vd);
   double best = std::numeric_limits<double>::infinity();
   for (double tk : f.t.front()) {
@@ -213,9 +219,8 @@ Evaluation evaluate(const Problem& p, const FitModel& m, const std::vector<doubl
   e.sims.resize(p.runs.size());
   std::vector<double> feat_level, feat_other;
   // Simulated still stages at theta (runs' own traces or phase-only simulations), for the phase
-  // of the runs that vibrate after t_on; own_still and kept own them.
+  // of the runs that vibrate after t_on; `kept` owns them.
   std::vector<std::pair<const RunData*, const std::vector<TraceSample>*>> still;
-  std::vector<std::unique_ptr<std::vector<TraceSample>>> own_still;
   std::vector<std::unique_ptr<SimResult>> kept;
   for (std::size_t k = 0; k < p.runs.size(); ++k) {
     const RunData& r = p.runs[k];
@@ -249,11 +254,12 @@ Evaluation evaluate(const Problem& p, const FitModel& m, const std::vector<doubl
               q->anchor_t == r.anchor_t && !qt->empty() && qt->back().t >= t_a)
             tr = qt;
         if (!tr) {
-          SimResult a = simulate(switched_at(m.config(r, theta, r.cond.duration, p.rtol), t_a, t_a));
-          if (a.status == RunStatus::kOk) {
-            own_still.push_back(std::make_unique<std::vector<TraceSample>>(std::move(a.trace)));
-            tr = own_still.back().get();
+          auto a = std::make_unique<SimResult>(
+              simulate(switched_at(m.config(r, theta, r.cond.duration, p.rtol), t_a, t_a)));
+          if (a->status == RunStatus::kOk) {
+            tr = &a->trace;
             still.push_back({&r, tr});
+            kept.push_back(std::move(a));
           }
         }
         if (tr) shift = phase_shift(r, *tr);
@@ -272,35 +278,17 @@ Evaluation evaluate(const Problem& p, const FitModel& m, const std::vector<doubl
     }
     if (span == Span::kFeatures) {
       const double rise = r.cond.kd * r.cond.vd;
-      Features f;
-      if (shift == 0) {
-        std::vector<double> tt, ff;
-        tt.reserve(res.trace.size());
-        ff.reserve(res.trace.size());
-        for (const TraceSample& q : res.trace) {
-          tt.push_back(q.t);
-          ff.push_back(q.F_d);
-        }
-        f = extract_features(tt, ff, r.windows, rise);
-      } else {
-        // The first window (still stage, before the switch) as simulated; the later windows
-        // from the switch on, on the measured clock (simulated t - shift).
-        std::vector<double> t0, f0, t1, f1;
-        const double t_switch = r.anchor_t + shift;
-        for (const TraceSample& q : res.trace) {
-          if (q.t < t_switch) {
-            t0.push_back(q.t);
-            f0.push_back(q.F_d);
-          } else {
-            t1.push_back(q.t - shift);
-            f1.push_back(q.F_d);
-          }
-        }
-        const std::vector<WindowSpec> first(r.windows.begin(), r.windows.begin() + 1),
-            later(r.windows.begin() + 1, r.windows.end());
-        f = extract_features(t0, f0, first, rise);
-        append_windows(&f, extract_features(t1, f1, later, rise));
-      }
+      // The first window (still stage, before the switch) as simulated; the later windows
+      // from the switch on, on the measured clock (simulated t - shift; shift = 0 unaligned).
+      constexpr double kInf = std::numeric_limits<double>::infinity();
+      const double t_switch = r.windows.size() > 1 ? r.windows[1].t0 + shift : kInf;
+      std::vector<double> t0, f0, t1, f1;
+      trace_columns(res.trace, -kInf, t_switch, 0.0, &t0, &f0);
+      trace_columns(res.trace, t_switch, kInf, shift, &t1, &f1);
+      const std::vector<WindowSpec> first(r.windows.begin(), r.windows.begin() + 1),
+          later(r.windows.begin() + 1, r.windows.end());
+      Features f = extract_features(t0, f0, first, rise);
+      append_windows(&f, extract_features(t1, f1, later, rise));
       feature_residuals(r.features, f, r.windows, rise, &feat_level, &feat_other);
     }
     // Linear interpolation of the trace at the sample times.
