@@ -74,6 +74,10 @@ void add_diagnose_command(CLI::App& app, int& exit_code) {
                                      "objective evaluations per base model")->capture_default_str();
   auto* evals_cand = cmd->add_option("--max-evals-candidate", a->opt.max_evals_candidate,
                                      "objective evaluations per extension")->capture_default_str();
+  auto* whole_runs = cmd->add_flag("--whole-run-holdout,!--no-whole-run-holdout", a->opt.whole_run_holdout,
+                                   "also hold out each whole run in turn (leave one v_a out; default on)");
+  auto* evals_fold = cmd->add_option("--max-evals-fold", a->opt.max_evals_fold,
+                                     "objective evaluations per left-out-run refit")->capture_default_str();
   cmd->add_option("--threads", a->opt.threads, "OpenMP threads (0 = default; local only)")->capture_default_str();
   cmd->add_option("--server", a->server,
                   "run on this stickslipd (token: $STICKSLIP_TOKEN): sends the manifest and its "
@@ -102,6 +106,8 @@ void add_diagnose_command(CLI::App& app, int& exit_code) {
     if (min_gain->count() > 0) r.options["min_gain"] = a->opt.min_gain;
     if (evals_base->count() > 0) r.options["max_evals_base"] = a->opt.max_evals_base;
     if (evals_cand->count() > 0) r.options["max_evals_candidate"] = a->opt.max_evals_candidate;
+    if (whole_runs->count() > 0) r.options["whole_run_holdout"] = a->opt.whole_run_holdout;
+    if (evals_fold->count() > 0) r.options["max_evals_fold"] = a->opt.max_evals_fold;
     exit_code = remote_diagnose(r);
   });
 }

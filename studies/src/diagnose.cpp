@@ -10,6 +10,7 @@
 #include <numeric>
 #include <stdexcept>
 
+#include "diagnose_evidence.h"
 #include "diagnose_fit.h"
 #include "diagnose_load.h"
 #include "diagnose_sensor.h"
@@ -40,6 +41,8 @@ bool DiagnoseOptions::IsValid(std::string* why) const {
     return fail("max_evals_candidate = " + std::to_string(max_evals_candidate) + ": must be >= 10");
   if (max_evals_profile < 4)
     return fail("max_evals_profile = " + std::to_string(max_evals_profile) + ": must be >= 4");
+  if (max_evals_fold < 5)
+    return fail("max_evals_fold = " + std::to_string(max_evals_fold) + ": must be >= 5");
   if (!(alpha > 0 && alpha < 1)) return fail("alpha = " + std::to_string(alpha) + ": must be in (0, 1)");
   if (!(min_gain >= 0 && min_gain < 1)) return fail("min_gain = " + std::to_string(min_gain) + ": must be in [0, 1)");
   for (ExtensionKind k : candidates)
@@ -93,71 +96,6 @@ std::vector<StageScore> stage_scores(const Problem& p, const Evaluation& e) {
     }
   }
   return out;
-}
-
-double corr(const std::vector<double>& a, const std::vector<double>& b) {
-  const double n = static_cast<double>(a.size());
-  if (a.size() < 3) return 0;
-  const double ma = std::accumulate(a.begin(), a.end(), 0.0) / n;
-  const double mb = std::accumulate(b.begin(), b.end(), 0.0) / n;
-  double sab = 0, saa = 0, sbb = 0;
-  for (std::size_t i = 0; i < a.size(); ++i) {
-    sab += (a[i] - ma) * (b[i] - mb);
-    saa += (a[i] - ma) * (a[i] - ma);
-    sbb += (b[i] - mb) * (b[i] - mb);
-  }
-  return saa > 0 && sbb > 0 ? sab / std::sqrt(saa * sbb) : 0.0;
-}
-
-/// Lag-1 autocorrelation of residuals, pooled within runs.
-double lag1(const Problem& p, const Evaluation& e) {
-  double num = 0, den = 0;
-  for (std::size_t k = 0; k < p.runs.size(); ++k) {
-    const RunData& r = p.runs[k];
-    double prev = 0;
-    bool have = false;
-    for (std::size_t i = 0; i < e.sims[k].F.size(); ++i) {
-      if (r.role[i] != kFit) { have = false; continue; }
-      const double res = r.y[i] - e.sims[k].F[i] - e.offset;
-      den += res * res;
-      if (have) num += res * prev;
-      prev = res;
-      have = true;
-    }
-  }
-  return den > 0 ? std::clamp(num / den, 0.0, 0.99) : 0.0;
-}
-
-struct WaveScan {
-  std::vector<double> lambda, amplitude, phase;
-};
-
-/// Amplitude of sin(2 pi x / lambda + phase) in the residuals over a log grid of wavelengths.
-WaveScan scan_wavelengths(const std::vector<double>& res, const std::vector<double>& x) {
-  WaveScan w;
-  const int n = 240;
-  for (int i = 0; i < n; ++i) {
-    const double lam = 2e-4 * std::pow(100.0, i / (n - 1.0));
-    double ss = 0, sc = 0, s2 = 0, c2 = 0, sc2 = 0;
-    for (std::size_t j = 0; j < res.size(); ++j) {
-      const double ph = 2 * M_PI * x[j] / lam, s = std::sin(ph), c = std::cos(ph);
-      ss += res[j] * s;
-      sc += res[j] * c;
-      s2 += s * s;
-      c2 += c * c;
-      sc2 += s * c;
-    }
-    const double det = s2 * c2 - sc2 * sc2;
-    double a = 0, b = 0;  // res ~ a sin + b cos
-    if (det > 0) {
-      a = (ss * c2 - sc * sc2) / det;
-      b = (sc * s2 - ss * sc2) / det;
-    }
-    w.lambda.push_back(lam);
-    w.amplitude.push_back(std::hypot(a, b));
-    w.phase.push_back(std::atan2(b, a));
-  }
-  return w;
 }
 
 struct BaseFit {
@@ -353,7 +291,7 @@ bool nest_in_base(const Problem& P, CandFit& c, const BaseFit& base, std::size_t
 }
 
 std::vector<std::vector<double>> extension_starts(ExtensionKind k, const std::vector<ParamSpec>& specs,
-                                                  const Evidence& ev, const WaveScan& scan,
+                                                  const Evidence& ev, const SineScan& scan,
                                                   double F_C0) {
   std::vector<std::vector<double>> s;
   switch (k) {
@@ -363,7 +301,7 @@ std::vector<std::vector<double>> extension_starts(ExtensionKind k, const std::ve
     case ExtensionKind::kWaviness: {
       // The three strongest local maxima of the residual spectrum against x.
       std::vector<std::size_t> peaks;
-      for (std::size_t i = 1; i + 1 < scan.lambda.size(); ++i)
+      for (std::size_t i = 1; i + 1 < scan.period.size(); ++i)
         if (scan.amplitude[i] >= scan.amplitude[i - 1] && scan.amplitude[i] >= scan.amplitude[i + 1])
           peaks.push_back(i);
       std::sort(peaks.begin(), peaks.end(),
@@ -372,8 +310,8 @@ std::vector<std::vector<double>> extension_starts(ExtensionKind k, const std::ve
       for (std::size_t i : peaks) {
         const double eps = std::clamp(scan.amplitude[i] / F_C0, 0.003, 0.25);
         for (double ph : {0.0, 0.5 * M_PI, M_PI, 1.5 * M_PI})
-          s.push_back({eps, scan.lambda[i], ph - M_PI});
-        s.push_back({eps, scan.lambda[i], scan.phase[i]});
+          s.push_back({eps, scan.period[i], ph - M_PI});
+        s.push_back({eps, scan.period[i], scan.phase[i]});
       }
       if (s.empty()) s = {{specs[0].init, specs[1].init, specs[2].init}};
       break;
@@ -393,6 +331,107 @@ std::vector<std::vector<double>> extension_starts(ExtensionKind k, const std::ve
     case ExtensionKind::kNone: break;
   }
   return s;
+}
+
+/// The problem for leaving run k out: every run, run k's samples all held out, the other runs'
+/// held-out samples unused. Span::kFit fits the other runs' fit samples (run k is simulated
+/// only to its fit_end, 0 here); Span::kFull scores run k with the offset fitted on the others.
+Problem leave_run_out(const Problem& P, std::size_t k, double rtol) {
+  Problem q = P;
+  q.rtol = rtol;
+  for (std::size_t j = 0; j < q.runs.size(); ++j) {
+    RunData& r = q.runs[j];
+    for (auto& role : r.role)
+      role = j == k ? static_cast<std::uint8_t>(kHeld)
+                    : role == kHeld ? static_cast<std::uint8_t>(kUnused) : role;
+  }
+  q.runs[k].fit_end = 0;
+  return q;
+}
+
+/// One model's refit without run k and its score on run k (into h's base or extended side).
+struct FoldFit {
+  double sse = 0;
+  std::size_t n = 0;
+  std::vector<StageScore> stages;
+  std::string status = "ok";
+  int evals = 0;
+};
+
+FoldFit fold_fit(const Problem& P, double rtol_score, std::size_t k, const FitModel& m,
+                 const std::vector<double>& theta, int max_evals) {
+  FoldFit out;
+  const FitResult fr = fit(leave_run_out(P, k, P.rtol), m, {theta}, Span::kFit, 0, max_evals);
+  out.evals = fr.evals;
+  if (!fr.ok) {
+    out.status = "failed: " + fr.reason;
+    return out;
+  }
+  const Problem score = leave_run_out(P, k, rtol_score);
+  const Evaluation e = evaluate(score, m, fr.theta, Span::kFull, 0);
+  ++out.evals;
+  if (!e.ok) {
+    out.status = "failed: " + e.reason;
+    return out;
+  }
+  out.sse = e.sse_held;
+  out.n = e.n_held;
+  for (const StageScore& st : stage_scores(score, e))
+    if (st.run == static_cast<int>(k)) out.stages.push_back(st);
+  return out;
+}
+
+/// Leave each run out in turn (DiagnoseOptions::whole_run_holdout): the base and, when a cause
+/// is named, its model refitted on the other runs from their all-run optima and scored on the
+/// run left out. A parameter that only the left-out run constrains keeps its all-run value
+/// there (the fold's fit cannot move it), so a fold says how well the model carries over to a
+/// v_a it was not fitted on, not how well the parameter could have been found without it.
+void whole_run_holdouts(const Problem& P, double rtol_score, const BaseFit& base,
+                        const CandFit* cause, const DiagnoseOptions& o, int threads,
+                        Diagnosis* d) {
+  const std::size_t n = P.runs.size(), sides = cause ? 2 : 1;
+  std::vector<FoldFit> fits(n * sides);
+#pragma omp parallel for schedule(dynamic, 1) num_threads(threads)
+  for (std::size_t i = 0; i < fits.size(); ++i) {
+    const std::size_t k = i / sides;
+    const bool ext = i % sides == 1;
+    try {
+      fits[i] = ext ? fold_fit(P, rtol_score, k, cause->model, cause->theta, o.max_evals_fold)
+                    : fold_fit(P, rtol_score, k, base.model, base.theta, o.max_evals_fold);
+    } catch (const std::exception& e) {
+      fits[i].status = std::string("failed: ") + e.what();
+    }
+  }
+  double sb = 0, se = 0;
+  std::size_t nb = 0, ne = 0;
+  bool all_ok = true;
+  for (std::size_t k = 0; k < n; ++k) {
+    const FoldFit& b = fits[k * sides];
+    const FoldFit& x = fits[k * sides + sides - 1];  // the base itself without a cause
+    RunHoldout h;
+    h.run = P.runs[k].name;
+    h.va = P.runs[k].cond.va;
+    h.evals = b.evals + (cause ? x.evals : 0);
+    h.status = b.status != "ok" ? "base " + b.status : x.status != "ok" ? "extended " + x.status : "ok";
+    h.rmse_base = rms(b.sse, b.n);
+    h.rmse_extended = rms(x.sse, x.n);
+    h.gain = 1.0 - h.rmse_extended / h.rmse_base;
+    h.stages_base = b.stages;
+    h.stages_extended = x.stages;
+    if (h.status == "ok") {
+      sb += b.sse;
+      nb += b.n;
+      se += x.sse;
+      ne += x.n;
+    } else {
+      all_ok = false;
+    }
+    d->evaluations += h.evals;
+    d->run_holdouts.push_back(std::move(h));
+  }
+  d->rmse_base_heldout_runs = all_ok ? rms(sb, nb) : kNaN;
+  d->rmse_extended_heldout_runs = all_ok ? rms(se, ne) : kNaN;
+  d->gain_heldout_runs = 1.0 - d->rmse_extended_heldout_runs / d->rmse_base_heldout_runs;
 }
 
 void significance(std::vector<CandFit>& cands, double sse0, double rmse0_held,
@@ -477,63 +516,8 @@ Diagnosis diagnose(const MeasuredDataset& data, const DiagnoseOptions& o) {
   BaseFit base = bases[best];
 
   // 2. Evidence from the best base model's residuals.
-  auto evidence_of = [&](const BaseFit& b) {
-    Evidence ev;
-    std::vector<double> res, xs, vs, stick;
-    for (std::size_t k = 0; k < P.runs.size(); ++k) {
-      const RunData& r = P.runs[k];
-      const RunSim& s = b.full.sims[k];
-      double last_slide = 0;
-      for (std::size_t i = 0; i < s.F.size(); ++i) {
-        if (std::fabs(s.v[i]) > 1e-4) last_slide = r.t[i];
-        res.push_back(r.y[i] - s.F[i] - b.full.offset);
-        xs.push_back(s.x[i]);
-        vs.push_back(s.v[i]);
-        stick.push_back(r.t[i] - last_slide);
-      }
-      for (std::size_t j = 0; j < r.stage_start.size(); ++j) {
-        double sum = 0;
-        int n = 0;
-        for (std::size_t i = 0; i < s.F.size(); ++i)
-          if (r.stage[i] == static_cast<int>(j)) { sum += r.y[i] - s.F[i] - b.full.offset; ++n; }
-        ev.stage_mean_residual.push_back(n ? sum / n : kNaN);
-        ev.stage_va.push_back(j == 0 && r.stage_start.size() > 1 ? 0.0 : r.cond.va);
-      }
-    }
-    double ss = 0;
-    for (double r : res) ss += r * r;
-    ev.residual_rms = rms(ss, res.size());
-    ev.rho = lag1(P, b.full);
-    ev.n = static_cast<double>(b.n_fit);
-    ev.n_eff = std::max(ev.n * (1 - ev.rho) / (1 + ev.rho), 10.0);
-    ev.corr_velocity = corr(res, vs);
-    ev.corr_position = corr(res, xs);
-    ev.corr_stick_time = corr(res, stick);
-    {
-      const double mx = std::accumulate(xs.begin(), xs.end(), 0.0) / xs.size();
-      double sxy = 0, sxx = 0;
-      for (std::size_t i = 0; i < xs.size(); ++i) {
-        sxy += (xs[i] - mx) * res[i];
-        sxx += (xs[i] - mx) * (xs[i] - mx);
-      }
-      ev.trend_per_m = sxx > 0 ? sxy / sxx : 0;
-    }
-    ev.stages = b.cal.stages;
-    return std::make_pair(ev, scan_wavelengths(res, xs));
-  };
-  auto [ev, scan] = evidence_of(base);
-  {
-    std::size_t imax = 0;
-    for (std::size_t i = 0; i < scan.amplitude.size(); ++i)
-      if (scan.amplitude[i] > scan.amplitude[imax]) imax = i;
-    std::vector<double> pw;
-    for (double a : scan.amplitude) pw.push_back(a * a);
-    std::nth_element(pw.begin(), pw.begin() + pw.size() / 2, pw.end());
-    ev.wavelength = scan.lambda[imax];
-    ev.wavelength_amplitude = scan.amplitude[imax];
-    ev.wavelength_phase = scan.phase[imax];
-    ev.wavelength_ratio = pw[pw.size() / 2] > 0 ? scan.amplitude[imax] * scan.amplitude[imax] / pw[pw.size() / 2] : 0;
-  }
+  SineScan scan;
+  Evidence ev = base_evidence(P, base.full, base.n_fit, &scan);
   {
     int ev_evals = 0;
     const auto se = standard_errors(P, base.model, base.theta, ev.n / ev.n_eff, &ev_evals);
@@ -724,7 +708,14 @@ Diagnosis diagnose(const MeasuredDataset& data, const DiagnoseOptions& o) {
     }
   }
   for (const auto& c : cands) d.evaluations += c.res.evals;
-  base.cal.aic = ev.n_eff * std::log(base.sse_fit / base.n_fit) + 2.0 * nb;
+  // Information criterion of every calibrated base model, on the best base's n_eff.
+  auto set_aic = [&](BaseFit& b) {
+    b.cal.aic = ev.n_eff * std::log(b.sse_fit / static_cast<double>(b.n_fit)) +
+                2.0 * static_cast<double>(b.theta.size());
+  };
+  for (auto& b : bases)
+    if (b.cal.status == "ok") set_aic(b);
+  set_aic(base);
   significance(cands, base.sse_fit, base.cal.rmse_heldout, o);
 
   // 4. An extension must beat a fully refitted base: refit the base from each significant
@@ -735,11 +726,14 @@ Diagnosis diagnose(const MeasuredDataset& data, const DiagnoseOptions& o) {
     BaseFit polished = calibrate(P, Ps, base.cal.model, F_C0, F_S0, o, &start);
     d.evaluations += polished.cal.evals;
     if (polished.cal.status == "ok" && polished.sse_fit < base.sse_fit) {
-      polished.cal.params = estimates(polished.model, polished.theta, {}, 0, nb);
+      int se_evals = 0;
+      const auto se = standard_errors(P, polished.model, polished.theta, ev.n / ev.n_eff, &se_evals);
+      d.evaluations += se_evals;
+      polished.cal.params = estimates(polished.model, polished.theta, se, 0, nb);
       polished.cal.evals += base.cal.evals;
+      set_aic(polished);
       base = polished;
       bases[best] = base;
-      base.cal.aic = ev.n_eff * std::log(base.sse_fit / base.n_fit) + 2.0 * nb;
       // Every candidate nests the new base too.
       for (auto& c : cands)
         if (c.res.status == "ok") nest_in_base(P, c, base, nb);
@@ -781,9 +775,16 @@ Diagnosis diagnose(const MeasuredDataset& data, const DiagnoseOptions& o) {
   for (auto& b : bases) d.calibrations.push_back(b.cal);
   for (auto& c : cands) d.candidates.push_back(c.res);
   ev.stages = base.cal.stages;
+  // The extended model of the plots and the residual views: the cause, else the best candidate.
+  const int shown = cause >= 0 ? cause : best_c;
+  add_residual_views(P, base.full, shown >= 0 && cands[shown].full.ok ? &cands[shown].full : nullptr,
+                     &ev);
   d.evidence = ev;
+
+  // 6. Whole runs held out.
+  if (o.whole_run_holdout && P.runs.size() >= 2)
+    whole_run_holdouts(P, o.rtol_score, base, cause >= 0 ? &cands[cause] : nullptr, o, threads, &d);
   if (o.keep_traces) {
-    const int shown = cause >= 0 ? cause : best_c;
     for (std::size_t k = 0; k < P.runs.size(); ++k) {
       RunSeries s;
       s.name = P.runs[k].name;

@@ -30,6 +30,69 @@ nlohmann::json stages_json(const std::vector<StageScore>& ss, const Diagnosis& d
   return a;
 }
 
+nlohmann::json numbers(const std::vector<double>& v) {
+  nlohmann::json a = nlohmann::json::array();
+  for (double x : v) a.push_back(json_number(x));
+  return a;
+}
+
+nlohmann::json profiles_json(const std::vector<ResidualProfile>& ps) {
+  nlohmann::json j = nlohmann::json::object();
+  for (const auto& p : ps)
+    j[p.variable] = {{"center", numbers(p.center)},
+                     {"base", numbers(p.base)},
+                     {"extended", numbers(p.extended)},
+                     {"count", p.count}};
+  return j;
+}
+
+nlohmann::json spectrum_json(const ResidualSpectrum& s, const char* period_name) {
+  return {{period_name, numbers(s.period)}, {"base", numbers(s.base)}, {"extended", numbers(s.extended)}};
+}
+
+nlohmann::json holdout_stages_json(const RunHoldout& h) {
+  nlohmann::json a = nlohmann::json::array();
+  for (std::size_t i = 0; i < h.stages_base.size(); ++i) {
+    const StageScore& b = h.stages_base[i];
+    const StageScore* x = i < h.stages_extended.size() ? &h.stages_extended[i] : nullptr;
+    auto side = [&](double m, double vb, double vx) {
+      return nlohmann::json{{"measured", json_number(m)}, {"base", json_number(vb)},
+                            {"extended", json_number(x ? vx : NAN)}};
+    };
+    a.push_back({{"stage", b.stage + 1},
+                 {"amplitude", side(b.measured_amplitude, b.model_amplitude, x ? x->model_amplitude : NAN)},
+                 {"mean_force", side(b.measured_mean, b.model_mean, x ? x->model_mean : NAN)},
+                 {"mean_period", side(b.measured_period, b.model_period, x ? x->model_period : NAN)}});
+  }
+  return a;
+}
+
+/// s as a single-quoted gnuplot string (no escapes inside; a quote is doubled), so that run
+/// names from a user's manifest cannot break the plot script.
+std::string gp_str(const std::string& s) {
+  std::string out = "'";
+  for (char c : s) out += c == '\'' ? std::string("''") : std::string(1, c);
+  return out + "'";
+}
+
+/// s as a single-quoted POSIX shell word.
+std::string shell_word(const std::string& s) {
+  std::string out = "'";
+  for (char c : s) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return out + "'";
+}
+
+/// The evidence panel that points at a cause (write_report's evidence.png), 0 when none.
+int evidence_panel(const std::string& cause) {
+  if (cause == "viscous" || cause == "stribeck_shape" || cause == "drive_damping") return 1;
+  if (cause == "dwell_time") return 2;
+  if (cause == "drift") return 3;
+  if (cause == "waviness") return 4;
+  if (cause == "sensor_dynamics") return 5;
+  if (cause == "normal_load_modulation") return 6;
+  return 0;
+}
+
 }  // namespace
 
 nlohmann::json to_json(const Diagnosis& d) {
@@ -63,7 +126,10 @@ nlohmann::json to_json(const Diagnosis& d) {
   const Evidence& e = d.evidence;
   nlohmann::json lv = nlohmann::json::array();
   for (std::size_t i = 0; i < e.stage_mean_residual.size(); ++i)
-    lv.push_back({{"va", json_number(e.stage_va[i])}, {"mean_residual", json_number(e.stage_mean_residual[i])}});
+    lv.push_back({{"va", json_number(e.stage_va[i])},
+                  {"mean_residual", json_number(e.stage_mean_residual[i])},
+                  {"mean_residual_extended",
+                   json_number(i < e.stage_mean_residual_extended.size() ? e.stage_mean_residual_extended[i] : NAN)}});
   j["evidence"] = {{"residual_rms", json_number(e.residual_rms)},
                    {"lag1_autocorrelation", json_number(e.rho)},
                    {"n_fit", json_number(e.n)},
@@ -76,7 +142,14 @@ nlohmann::json to_json(const Diagnosis& d) {
                                         {"amplitude", json_number(e.wavelength_amplitude)},
                                         {"phase", json_number(e.wavelength_phase)},
                                         {"power_over_median", json_number(e.wavelength_ratio)}}},
+                   {"t_spectrum_peak", {{"frequency", json_number(e.frequency)},
+                                        {"amplitude", json_number(e.frequency_amplitude)},
+                                        {"power_over_median", json_number(e.frequency_ratio)}}},
                    {"stage_level_vs_va", lv},
+                   {"extended_model", d.cause != "none" ? d.cause : d.best_candidate},
+                   {"profiles", profiles_json(e.profiles)},
+                   {"x_spectrum", spectrum_json(e.x_spectrum, "wavelength")},
+                   {"t_spectrum", spectrum_json(e.t_spectrum, "period")},
                    {"per_stage", stages_json(e.stages, d)}};
   auto& cal = j["calibrations"] = nlohmann::json::array();
   for (const auto& c : d.calibrations) {
@@ -93,8 +166,26 @@ nlohmann::json to_json(const Diagnosis& d) {
                    {"evaluations", c.evals},
                    {"per_stage", stages_json(c.stages, d)}});
   }
+  nlohmann::json folds = nlohmann::json::array();
+  for (const auto& h : d.run_holdouts)
+    folds.push_back({{"run", h.run},
+                     {"va", json_number(h.va)},
+                     {"status", h.status},
+                     {"rmse_base", json_number(h.rmse_base)},
+                     {"rmse_extended", json_number(h.rmse_extended)},
+                     {"gain", json_number(h.gain)},
+                     {"evaluations", h.evals},
+                     {"per_stage", holdout_stages_json(h)}});
+  if (d.run_holdouts.empty())
+    j["heldout_runs"] = nullptr;
+  else
+    j["heldout_runs"] = {{"rmse_base", json_number(d.rmse_base_heldout_runs)},
+                         {"rmse_extended", json_number(d.rmse_extended_heldout_runs)},
+                         {"gain", json_number(d.gain_heldout_runs)},
+                         {"folds", folds}};
   const auto& o = d.options;
-  j["method"] = {{"fit_rate", o.fit_rate},
+  j["method"] = {{"whole_run_holdout", o.whole_run_holdout},
+                 {"max_evals_fold", o.max_evals_fold},{"fit_rate", o.fit_rate},
                  {"holdout_fraction", o.holdout_fraction},
                  {"later_stage_fit_span", o.later_stage_fit_span},
                  {"alpha", o.alpha},
@@ -145,6 +236,20 @@ std::string summary_text(const Diagnosis& d) {
   std::snprintf(line, sizeof line, "cause: %s  (held-out RMSE %.4f -> %.4f N, gain %.3f)\n", d.cause.c_str(),
                 d.rmse_base_heldout, d.rmse_extended_heldout, d.gain);
   s << line;
+  if (!d.run_holdouts.empty()) {
+    s << "whole runs held out (refitted on the other runs; RMSE over the run left out [N]):\n";
+    s << "  run                      v_a [m/s]      base  extended    gain\n";
+    for (const auto& h : d.run_holdouts) {
+      std::snprintf(line, sizeof line, "  %-24s %9.3g  %8.4f  %8.4f  %+6.3f", h.run.c_str(), h.va, h.rmse_base,
+                    h.rmse_extended, h.gain);
+      s << line;
+      if (h.status != "ok") s << "  " << h.status;
+      s << "\n";
+    }
+    std::snprintf(line, sizeof line, "  %-24s %9s  %8.4f  %8.4f  %+6.3f\n", "all", "", d.rmse_base_heldout_runs,
+                  d.rmse_extended_heldout_runs, d.gain_heldout_runs);
+    s << line;
+  }
   return s.str();
 }
 
@@ -173,19 +278,83 @@ std::vector<std::string> write_report(const Diagnosis& d, const std::filesystem:
         << s.measured[i] - s.base[i] << ' ' << s.measured[i] - ext << '\n';
     }
     files.push_back((dir / dat).string());
-    gp << "set output '" << "run" << k + 1 << ".png'\nset multiplot layout 2,1 title '" << s.name
-       << ": measured vs " << to_string(d.base_model) << " and + " << ext_label << "'\n"
+    gp << "set output '" << "run" << k + 1 << ".png'\nset multiplot layout 2,1 title "
+       << gp_str(s.name + ": measured vs " + to_string(d.base_model) + " and + " + ext_label) << "\n"
        << "set ylabel 'F_d [N]'\nplot '" << dat << "' u 1:2 w l lc 'gray' t 'measured', '' u 1:3 w l lc 'blue' t 'base', '' u 1:4 w l lc 'red' t 'extended'\n"
        << "set ylabel 'residual [N]'\nset xlabel 't [s]'\nplot '" << dat << "' u 1:5 w l lc 'blue' t 'base', '' u 1:6 w l lc 'red' t 'extended'\n"
        << "unset multiplot\nunset xlabel\n";
   }
+  // Evidence: the base's and the extended model's residuals against what each cause acts on.
+  auto table = [&](const std::string& name, const std::vector<std::vector<double>>& cols,
+                   const char* header) {
+    std::ofstream f(dir / name);
+    f << "# " << header << "\n";
+    const std::size_t n = cols.empty() ? 0 : cols[0].size();
+    for (std::size_t i = 0; i < n; ++i) {
+      for (std::size_t c = 0; c < cols.size(); ++c)
+        f << (c ? " " : "") << (i < cols[c].size() ? cols[c][i] : NAN);
+      f << '\n';
+    }
+    files.push_back((dir / name).string());
+    return n > 0;
+  };
+  const Evidence& e = d.evidence;
+  std::vector<bool> have;
+  for (const char* var : {"velocity", "stick_time", "position"}) {
+    const ResidualProfile* p = nullptr;
+    for (const auto& q : e.profiles)
+      if (q.variable == var) p = &q;
+    have.push_back(p && table(std::string("profile_") + var + ".dat", {p->center, p->base, p->extended},
+                              "center base_residual extended_residual (SI)"));
+  }
+  have.push_back(table("spectrum_x.dat", {e.x_spectrum.period, e.x_spectrum.base, e.x_spectrum.extended},
+                       "wavelength[m] base_amplitude[N] extended_amplitude[N]"));
+  have.push_back(table("spectrum_t.dat", {e.t_spectrum.period, e.t_spectrum.base, e.t_spectrum.extended},
+                       "period[s] base_amplitude[N] extended_amplitude[N]"));
+  have.push_back(table("stage_levels.dat", {e.stage_va, e.stage_mean_residual, e.stage_mean_residual_extended},
+                       "va[m/s] base_mean_residual[N] extended_mean_residual[N]"));
+  struct Panel {
+    const char* file;
+    const char* title;
+    const char* xlabel;
+    const char* using_x;  ///< gnuplot expression of the x column
+    bool logx;
+    const char* style;
+  };
+  const Panel panels[] = {
+      {"profile_velocity.dat", "residual vs velocity (sliding)", "x' [mm/s]", "($1*1e3)", false, "lp"},
+      {"profile_stick_time.dat", "residual vs stick time", "time since sliding [s]", "1", false, "lp"},
+      {"profile_position.dat", "residual vs position (trend)", "x [mm]", "($1*1e3)", false, "lp"},
+      {"spectrum_x.dat", "residual spectrum vs x", "wavelength [mm]", "($1*1e3)", true, "l"},
+      {"spectrum_t.dat", "residual spectrum vs t", "frequency [Hz]", "(1/$1)", true, "l"},
+      {"stage_levels.dat", "stage mean residual vs v_a", "v_a [mm/s]", "($1*1e3)", false, "p pt 7"}};
+  const int marked = evidence_panel(d.cause);
+  gp << "set output 'evidence.png'\nset terminal pngcairo size 1500,900\n"
+     << "set multiplot layout 2,3 title "
+     << gp_str(std::string("evidence: residuals of ") + to_string(d.base_model) + " (blue) and + " +
+               ext_label + " (red); named cause: " + d.cause)
+     << "\n";
+  for (int i = 0; i < 6; ++i) {
+    const Panel& p = panels[i];
+    if (!have[i]) {
+      gp << "set multiplot next\n";
+      continue;
+    }
+    gp << "set title " << gp_str(std::string(i + 1 == marked ? "[cause] " : "") + p.title) << "\n"
+       << "set xlabel " << gp_str(p.xlabel) << "\nset ylabel '"
+       << (i == 3 || i == 4 ? "amplitude [N]" : "residual [N]") << "'\n" << (p.logx ? "set logscale x\n" : "unset logscale x\n")
+       << "plot '" << p.file << "' u " << p.using_x << ":2 w " << p.style << " lc 'blue' t 'base', '' u "
+       << p.using_x << ":3 w " << p.style << " lc 'red' t 'extended'\n";
+  }
+  gp << "unset multiplot\nunset title\nunset logscale x\n";
   gp.close();
   files.push_back((dir / "plots.gp").string());
   if (std::system("command -v gnuplot >/dev/null 2>&1") == 0) {
-    const std::string cmd = "cd '" + dir.string() + "' && gnuplot plots.gp > gnuplot.log 2>&1";
+    const std::string cmd = "cd " + shell_word(dir.string()) + " && gnuplot plots.gp > gnuplot.log 2>&1";
     if (std::system(cmd.c_str()) == 0) {
       for (std::size_t k = 0; k < d.series.size(); ++k)
         files.push_back((dir / ("run" + std::to_string(k + 1) + ".png")).string());
+      files.push_back((dir / "evidence.png").string());
     } else {
       files.push_back("plots failed: see " + (dir / "gnuplot.log").string());
     }

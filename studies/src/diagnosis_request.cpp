@@ -61,6 +61,8 @@ ParsedDiagnosisRequest parse_diagnosis_request(const json& doc, int threads) {
     if (j.contains("max_evals_candidate"))
       o.max_evals_candidate = j["max_evals_candidate"].get<int>();
     if (j.contains("fit_offset")) o.fit_offset = j["fit_offset"].get<bool>();
+    if (j.contains("whole_run_holdout")) o.whole_run_holdout = j["whole_run_holdout"].get<bool>();
+    if (j.contains("max_evals_fold")) o.max_evals_fold = j["max_evals_fold"].get<int>();
   }
   if (std::string why; !o.IsValid(&why)) out.errors.push_back({options_pointer(why), why});
 
