@@ -33,5 +33,12 @@ int main() {
               "%d model evaluations (target <= 180 s)\n",
               t_synth, d.seconds, d.evaluations);
   std::cout << summary_text(d);
+  // Where the evaluations went (the candidates run two at a time, the base models too).
+  std::printf("evaluations:");
+  for (const auto& c : d.calibrations) std::printf(" %s %d,", to_string(c.model), c.evals);
+  for (const auto& c : d.candidates) std::printf(" %s %d,", to_string(c.kind), c.evals);
+  int folds = 0;
+  for (const auto& h : d.run_holdouts) folds += h.evals;
+  std::printf(" whole-run folds %d\n", folds);
   return 0;
 }

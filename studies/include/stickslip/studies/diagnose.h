@@ -31,8 +31,9 @@
 //  * Significance. Likelihood ratio n_eff ln(SSE_base / SSE_ext) ~ chi^2(k) with n_eff =
 //    n (1 - rho) / (1 + rho) from the AR(1) coefficient rho of the base residuals; Holm's
 //    correction over the candidates; and a minimum effect size: held-out gain >= min_gain.
-//    A significant candidate also triggers a base-only refit from its base parameters, so an
-//    extension never wins only because the base optimisation had stopped early. Among the
+//    Every significant candidate also triggers a base-only refit from its base parameters
+//    (all in parallel); the best refit, if better, becomes the null and the tests are redone,
+//    so an extension never wins only because the base optimisation had stopped early. Among the
 //    significant candidates the cause is the one with the lowest n_eff ln(SSE/n) + 2 k on the
 //    fit set (base n_eff for all).
 
