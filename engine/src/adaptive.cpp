@@ -291,7 +291,7 @@ void adaptive(RunContext& ctx, const Sys& sys, const ErrorScale& es) {
   const IntegratorOptions& opt = ctx.cfg.integrator;
   State y{};
   double h = std::min(opt.dt, opt.dt_max);
-  drive_stages(ctx, y, [&](const Plant& p, double t0, double t1, StageAccumulator& acc) {
+  drive_stages(ctx, y, &h, [&](const Plant& p, double t0, double t1, StageAccumulator& acc) {
     double t = t0;
     typename Sys::Mode mode = sys.start_mode(p, t, y);
     Deriv k1 = sys.eval(p, t, y, mode);

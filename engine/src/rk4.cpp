@@ -12,7 +12,7 @@ namespace {
 
 template <class Model>
 void rk4_plain(RunContext& ctx, const Model& model, State& y) {
-  drive_stages(ctx, y, [&](const Plant& p, double t0, double t1, StageAccumulator& acc) {
+  drive_stages(ctx, y, nullptr, [&](const Plant& p, double t0, double t1, StageAccumulator& acc) {
     const long n = steps_for(t1 - t0, ctx.cfg.integrator.dt);
     const double h = (t1 - t0) / static_cast<double>(n);
     BasePhase ph(p.w, h);
@@ -69,7 +69,7 @@ State rk4_step(const F& f, const Plant& p, double t, const State& y, double h,
 
 template <class H>
 void rk4_event(RunContext& ctx, const H& hyb, State& y) {
-  drive_stages(ctx, y, [&](const Plant& p, double t0, double t1, StageAccumulator& acc) {
+  drive_stages(ctx, y, nullptr, [&](const Plant& p, double t0, double t1, StageAccumulator& acc) {
     const long n = steps_for(t1 - t0, ctx.cfg.integrator.dt);
     const double h = (t1 - t0) / static_cast<double>(n);
     auto point = [&](double t, const State& z) { return p.point(t, z.x, z.v); };

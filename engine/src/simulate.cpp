@@ -64,16 +64,39 @@ void fail_diverged(RunContext& ctx, double t, const State& y, double ub, double 
 
 }  // namespace detail
 
-SimResult simulate(const SimConfig& cfg) {
-  SimResult r;
+namespace {
+
+/// kInvalid with the configuration's errors joined; false when cfg is valid.
+bool invalid(const SimConfig& cfg, SimResult* r) {
   std::vector<std::string> errors;
-  if (!cfg.IsValid(&errors)) {
-    r.status = RunStatus::kInvalid;
-    for (const auto& e : errors) r.reason += (r.reason.empty() ? "" : "; ") + e;
-    return r;
+  if (cfg.IsValid(&errors)) return false;
+  r->status = RunStatus::kInvalid;
+  for (const auto& e : errors) r->reason += (r->reason.empty() ? "" : "; ") + e;
+  return true;
+}
+
+/// Runs the integrator of ctx.cfg on a prepared context.
+void run(detail::RunContext& ctx) {
+  try {
+    switch (ctx.cfg.integrator.kind) {
+      case IntegratorKind::kRk4: detail::run_rk4(ctx); break;
+      case IntegratorKind::kRk4Event: detail::run_rk4_event(ctx); break;
+      case IntegratorKind::kAdaptive: detail::run_adaptive(ctx); break;
+    }
+  } catch (const InvalidParameter& e) {  // a model constructor rejected a value
+    ctx.result = SimResult{};
+    ctx.result.status = RunStatus::kInvalid;
+    ctx.result.reason = e.what();
   }
+}
+
+SimResult simulate_saving(const SimConfig& cfg, detail::CheckpointData* save, std::size_t after) {
+  SimResult r;
+  if (invalid(cfg, &r)) return r;
   detail::RunContext ctx{cfg, r, detail::TraceRecorder(cfg.trace.rate, &r.trace),
                          detail::make_guard(cfg)};
+  ctx.save = save;
+  ctx.save_after = after;
   if (cfg.extension.active()) {
     ctx.ext = detail::ExtRuntime(cfg.extension);
     if (cfg.extension.kind == ExtensionKind::kSensorDynamics)
@@ -82,18 +105,63 @@ SimResult simulate(const SimConfig& cfg) {
   }
   if (cfg.trace.rate > 0)
     r.trace.reserve(static_cast<std::size_t>(cfg.total_duration() * cfg.trace.rate) + 2);
-  try {
-    switch (cfg.integrator.kind) {
-      case IntegratorKind::kRk4: detail::run_rk4(ctx); break;
-      case IntegratorKind::kRk4Event: detail::run_rk4_event(ctx); break;
-      case IntegratorKind::kAdaptive: detail::run_adaptive(ctx); break;
-    }
-  } catch (const InvalidParameter& e) {  // a model constructor rejected a value
-    r = SimResult{};
-    r.status = RunStatus::kInvalid;
-    r.reason = e.what();
-  }
+  run(ctx);
   return r;
+}
+
+}  // namespace
+
+SimResult simulate(const SimConfig& cfg) { return simulate_saving(cfg, nullptr, 0); }
+
+std::size_t SimCheckpoint::stages() const noexcept { return data_ ? data_->stages_done : 0; }
+
+SimResult simulate(const SimConfig& cfg, std::size_t stages, SimCheckpoint* checkpoint) {
+  *checkpoint = SimCheckpoint{};
+  if (stages < 1 || stages >= cfg.stages.size() || cfg.integrator.kind != IntegratorKind::kAdaptive)
+    return simulate(cfg);
+  auto data = std::make_shared<detail::CheckpointData>();
+  SimResult r = simulate_saving(cfg, data.get(), stages);
+  if (r.status == RunStatus::kOk && data->stages_done == stages) checkpoint->data_ = std::move(data);
+  return r;
+}
+
+SimResult simulate_from(const SimConfig& cfg, const SimCheckpoint& checkpoint) {
+  SimResult r;
+  if (invalid(cfg, &r)) return r;
+  r.status = RunStatus::kInvalid;
+  if (!checkpoint.data_) {
+    r.reason = "simulate_from: the checkpoint is empty";
+    return r;
+  }
+  const detail::CheckpointData& c = *checkpoint.data_;
+  if (cfg.integrator.kind != IntegratorKind::kAdaptive) {
+    r.reason = std::string("simulate_from: integrator ") + to_string(cfg.integrator.kind) +
+               ": checkpoints need the adaptive integrator";
+    return r;
+  }
+  if (!same_first_stages(cfg, c.cfg, c.stages_done)) {
+    r.reason = "simulate_from: the configuration differs from the checkpoint's run in its first " +
+               std::to_string(c.stages_done) + " stage(s)";
+    return r;
+  }
+  r = c.result;
+  if (cfg.trace.rate > 0)
+    r.trace.reserve(static_cast<std::size_t>(cfg.total_duration() * cfg.trace.rate) + 2);
+  detail::RunContext ctx{cfg, r, c.trace, detail::make_guard(cfg)};
+  ctx.trace.retarget(&r.trace);
+  ctx.ext = c.ext;
+  ctx.resume = &c;
+  run(ctx);
+  return r;
+}
+
+bool same_first_stages(const SimConfig& a, const SimConfig& b, std::size_t n) {
+  if (a.stages.size() < n || b.stages.size() < n) return false;
+  for (std::size_t i = 0; i < n; ++i)
+    if (!(a.stages[i] == b.stages[i])) return false;
+  return a.model == b.model && a.drive == b.drive && a.friction == b.friction &&
+         a.integrator == b.integrator && a.metrics == b.metrics && a.trace == b.trace &&
+         a.extension == b.extension;
 }
 
 namespace {

@@ -301,6 +301,8 @@ class TraceRecorder {
   bool active() const noexcept { return period_ > 0; }
   /// sensor_dynamics: the trace's F_d becomes the sensor's output (see extensions.h).
   void set_sensor(const SensorFilter& f) { sensor_ = f; }
+  /// Further samples go to out (a copy of the recorder continues another run's trace).
+  void retarget(std::vector<TraceSample>* out) noexcept { out_ = out; }
   /// Called on every integrator step: the common case (no sample due, no sensor) is inline.
   void add(const TraceSample& now) {
     if (period_ <= 0) return;
@@ -344,6 +346,8 @@ class TraceRecorder {
   SensorFilter sensor_;
 };
 
+struct CheckpointData;
+
 /// What an integrator needs for one run: stage loop bookkeeping is shared by all of them.
 struct RunContext {
   const SimConfig& cfg;
@@ -351,6 +355,25 @@ struct RunContext {
   TraceRecorder trace;
   DivergenceGuard guard;
   ExtRuntime ext{};  ///< catalogue extension state (kind none: the base model)
+  /// Continue from this run's end of a stage (simulate_from; result, trace and ext are already
+  /// restored; drive_stages restores the state and the step size).
+  const CheckpointData* resume = nullptr;
+  /// Save the run here after its first save_after stages (simulate with a checkpoint).
+  CheckpointData* save = nullptr;
+  std::size_t save_after = 0;
+};
+
+/// A run at the end of one of its stages (simulate.h, SimCheckpoint): everything the stage loop
+/// carries from one stage to the next.
+struct CheckpointData {
+  SimConfig cfg;               ///< the run it came from
+  std::size_t stages_done = 0; ///< the next stage's index
+  double t0 = 0.0;             ///< the next stage's start [s]
+  State y{};
+  double h = 0.0;              ///< the adaptive integrator's next step [s]
+  ExtRuntime ext{};
+  TraceRecorder trace{0.0, nullptr};  ///< its output pointer is stale: retarget before use
+  SimResult result;            ///< the run so far
 };
 
 /// The divergence limits simulate() uses for cfg.
@@ -423,13 +446,23 @@ inline Plant make_plant(const SimConfig& cfg) {
 
 /// Runs the stage loop shared by every integrator. integrate_stage(plant, t0, t1, acc) advances
 /// the state from t0 to t1 under the stage's base motion, feeding the accumulator, and returns
-/// false when the run diverged (having filled result.status/reason/t_end).
+/// false when the run diverged (having filled result.status/reason/t_end). h: the integrator's
+/// step size carried between stages (adaptive; nullptr for the fixed-step integrators), saved
+/// in and restored from checkpoints with the state y.
 template <class IntegrateStage>
-void drive_stages(RunContext& ctx, const State& y, IntegrateStage&& integrate_stage) {
+void drive_stages(RunContext& ctx, State& y, double* h, IntegrateStage&& integrate_stage) {
   Plant plant = make_plant(ctx.cfg);
   if (ctx.ext.kind != ExtensionKind::kNone) plant.ext = &ctx.ext;
   double t0 = 0.0;
-  for (const Stage& st : ctx.cfg.stages) {
+  std::size_t first = 0;
+  if (ctx.resume) {
+    first = ctx.resume->stages_done;
+    t0 = ctx.resume->t0;
+    y = ctx.resume->y;
+    if (h) *h = ctx.resume->h;
+  }
+  for (std::size_t i = first; i < ctx.cfg.stages.size(); ++i) {
+    const Stage& st = ctx.cfg.stages[i];
     const double t1 = t0 + st.duration;
     plant.v_a = st.v_a;
     plant.w = 2.0 * M_PI * st.f;
@@ -442,6 +475,18 @@ void drive_stages(RunContext& ctx, const State& y, IntegrateStage&& integrate_st
     if (!ok) return;
     ctx.result.stages.push_back(acc.finish());
     t0 = t1;
+    if (ctx.save && i + 1 == ctx.save_after) {
+      CheckpointData& c = *ctx.save;
+      c.cfg = ctx.cfg;
+      c.stages_done = i + 1;
+      c.t0 = t0;
+      c.y = y;
+      c.h = h ? *h : 0.0;
+      c.ext = ctx.ext;
+      c.trace = ctx.trace;
+      c.result = ctx.result;
+      c.result.t_end = t0;
+    }
   }
   ctx.result.t_end = t0;
 }

@@ -222,6 +222,9 @@ Evaluation evaluate(const Problem& p, const FitModel& m, const std::vector<doubl
   // of the runs that vibrate after t_on; `kept` owns them.
   std::vector<std::pair<const RunData*, const std::vector<TraceSample>*>> still;
   std::vector<std::unique_ptr<SimResult>> kept;
+  // Unaligned spans: runs with the same first (still) stage integrate it once; the others
+  // continue from its end (SimCheckpoint, bitwise the same as from rest).
+  std::vector<std::pair<SimConfig, SimCheckpoint>> first_stages;
   for (std::size_t k = 0; k < p.runs.size(); ++k) {
     const RunData& r = p.runs[k];
     const double t_end = span_end(r, span, short_end);
@@ -270,7 +273,20 @@ Evaluation evaluate(const Problem& p, const FitModel& m, const std::vector<doubl
       e.reason = ex.what();
       return e;
     }
-    if (!(align && all_still)) res = simulate(cfg);
+    if (!align && cfg.stages.size() > 1) {
+      const SimCheckpoint* from = nullptr;
+      for (const auto& [c0, cp] : first_stages)
+        if (same_first_stages(cfg, c0, 1)) from = &cp;
+      if (from) {
+        res = simulate_from(cfg, *from);
+      } else {
+        SimCheckpoint cp;
+        res = simulate(cfg, 1, &cp);
+        if (!cp.empty()) first_stages.emplace_back(cfg, std::move(cp));
+      }
+    } else if (!(align && all_still)) {
+      res = simulate(cfg);
+    }
     RunSim& s = e.sims[k];
     if (res.status != RunStatus::kOk || res.trace.size() < 2) {
       e.reason = "run " + r.name + ": " + to_string(res.status) + " " + res.reason;

@@ -85,6 +85,7 @@ struct Extension {
   double c_d = 0.0;              ///< drive_damping: drive damping [N s/m]
 
   bool active() const noexcept { return kind != ExtensionKind::kNone; }
+  bool operator==(const Extension&) const = default;
   /// Appends "field = value: why" per broken constraint. x_max [m] is the largest sliding
   /// distance of the run (for drift: 1 + gamma x must stay > 0); pass 0 to skip that check.
   bool IsValid(std::vector<std::string>* errors = nullptr, double x_max = 0.0) const;

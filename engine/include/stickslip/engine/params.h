@@ -56,6 +56,7 @@ struct Drive {
   double k_d = 11700.0;  ///< drive stiffness [N/m]
   double v_d = 1.0e-3;   ///< drive velocity [m/s]
   double F_z = 29.4;     ///< external load [N]; informational (F_C and F_S are given directly)
+  bool operator==(const Drive&) const = default;
 };
 
 /// Friction parameters, flat: each model reads the fields it uses (Table 1 defaults).
@@ -75,6 +76,7 @@ struct FrictionParams {
   double h_t = 1.377e4;   ///< LuGre bristle damping [N s/m] (eq. 21 with zeta = 1)
   double h_v = 0.0;       ///< LuGre viscous damping [N s/m]
   double v_s = 3.5e-4;    ///< LuGre Stribeck velocity [m/s]
+  bool operator==(const FrictionParams&) const = default;
 };
 
 /// One stage of a run: a duration and a vibration setting. v_a == 0 means the base is still.
@@ -83,6 +85,7 @@ struct Stage {
   double v_a = 0.0;        ///< base velocity amplitude [m/s]
   double f = 1500.0;       ///< base frequency [Hz]
   bool vibrating() const noexcept { return v_a > 0.0; }
+  bool operator==(const Stage&) const = default;
 };
 
 struct IntegratorOptions {
@@ -94,15 +97,18 @@ struct IntegratorOptions {
   double atol = 1.0e-7;    ///< adaptive: absolute local tolerance [N]
   double dt_max = 1.0e-4;  ///< adaptive: largest step [s]
   double max_steps = 2e9;  ///< safety cap on the number of steps in a run [-]
+  bool operator==(const IntegratorOptions&) const = default;
 };
 
 struct MetricOptions {
   double settle_fraction = 0.4;      ///< judge each stage over its last (1 - this) part [-]
   double cycle_threshold = 0.2;      ///< smallest F_d drop that counts as a slip [N]
+  bool operator==(const MetricOptions&) const = default;
 };
 
 struct TraceOptions {
   double rate = 0.0;  ///< samples per second; 0 = no trace [Hz]
+  bool operator==(const TraceOptions&) const = default;
 };
 
 /// The whole specification of one simulation run.

@@ -16,6 +16,7 @@
 // The detector sees every integrator step, so peaks are not aliased by the trace rate.
 
 #include <cstddef>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -58,6 +59,44 @@ struct SimResult {
 /// Runs cfg. Never throws for a bad configuration: returns status kInvalid with the reason.
 /// Never returns NaN: a run that blows up ends with kDiverged, the time and the reason.
 SimResult simulate(const SimConfig& cfg);
+
+namespace detail {
+struct CheckpointData;
+}
+
+/// A run stopped at the end of one of its stages, from which simulate_from() continues any
+/// configuration that agrees with that run up to there (same_first_stages): runs that share a
+/// still stage integrate it once. Continuing gives bitwise the result of running the other
+/// configuration from t = 0: the stage loop carries only the state, the step size, the
+/// extension's clock, the trace recorder and the result so far from stage to stage, and the
+/// checkpoint holds exactly those (tests/engine/test_checkpoint.cpp). Adaptive integrator only.
+/// Cheap to copy (shared, immutable).
+class SimCheckpoint {
+ public:
+  bool empty() const noexcept { return !data_; }
+  /// Stages the run had completed [-] (0 when empty).
+  std::size_t stages() const noexcept;
+
+ private:
+  friend SimResult simulate(const SimConfig&, std::size_t, SimCheckpoint*);
+  friend SimResult simulate_from(const SimConfig&, const SimCheckpoint&);
+  std::shared_ptr<const detail::CheckpointData> data_;
+};
+
+/// Runs cfg like simulate(cfg) and, when the run completes its first `stages` stages (1 <=
+/// stages < cfg.stages.size(), adaptive integrator), stores it at that point in *checkpoint;
+/// otherwise *checkpoint is left empty.
+SimResult simulate(const SimConfig& cfg, std::size_t stages, SimCheckpoint* checkpoint);
+
+/// Runs cfg from the checkpoint on. Status kInvalid, with the reason, when the checkpoint is
+/// empty or cfg does not agree with the checkpoint's run in its first checkpoint.stages()
+/// stages (same_first_stages), or cfg itself is invalid.
+SimResult simulate_from(const SimConfig& cfg, const SimCheckpoint& checkpoint);
+
+/// True when a and b agree in everything that determines their first n stages: model, drive,
+/// friction, extension, integrator, metric and trace options, and stages 0 .. n-1 (both have
+/// at least n). Later stages play no part in the earlier ones (the stage loop runs forward).
+bool same_first_stages(const SimConfig& a, const SimConfig& b, std::size_t n);
 
 /// JSON summary {"model","status","reason","t_end","steps","stages":[{...}]}; no NaN ever.
 std::string summary_json(const SimConfig& cfg, const SimResult& r, int indent = 2);
