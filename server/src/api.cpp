@@ -212,6 +212,12 @@ Api::Api(ApiOptions options, Scheduler* scheduler, DiagnosisScheduler* diagnoses
     resp.set_header("Cache-Control", "public, max-age=3600");
     return resp;
   });
+  router_.add("GET", "/v1/diagnosis.schema.json", [](const Request&, const PathParams&) {
+    Response resp = text_response(200, "application/schema+json",
+                                  std::string(studies::diagnosis_schema_text()));
+    resp.set_header("Cache-Control", "public, max-age=3600");
+    return resp;
+  });
 }
 
 Response Api::handle(const Request& request) const {

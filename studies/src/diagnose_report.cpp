@@ -7,6 +7,7 @@
 
 #include "stickslip/studies/json_number.h"
 #include "stickslip/studies/diagnose.h"
+#include "stickslip/studies/diagnosis_schema_data.h"
 
 namespace stickslip::studies {
 namespace {
@@ -94,6 +95,8 @@ int evidence_panel(const std::string& cause) {
 }
 
 }  // namespace
+
+std::string_view diagnosis_schema_text() noexcept { return generated::kDiagnosisSchemaJson; }
 
 nlohmann::json to_json(const Diagnosis& d) {
   nlohmann::json j;

@@ -72,6 +72,9 @@ TEST(OpenApi, EveryServedRouteIsDocumentedAndEveryDocumentedRouteIsServed) {
   const Response diag = api.handle(testing::get("/v1/diagnosis_request.schema.json"));
   ASSERT_EQ(diag.status, 200);
   EXPECT_EQ(json::parse(diag.body)["required"], json({"manifest", "files"}));
+  const Response result = api.handle(testing::get("/v1/diagnosis.schema.json"));
+  ASSERT_EQ(result.status, 200);
+  EXPECT_EQ(json::parse(result.body)["title"], "stickslip diagnosis");
 }
 
 TEST(OpenApi, EveryLocalReferenceResolves) {
@@ -80,8 +83,11 @@ TEST(OpenApi, EveryLocalReferenceResolves) {
   collect_refs(doc, &refs);
   ASSERT_FALSE(refs.empty());
   for (const auto& ref : refs) {
-    // Served at /v1/study.schema.json and /v1/diagnosis_request.schema.json (tested above).
-    if (ref == "study.schema.json" || ref == "diagnosis_request.schema.json") continue;
+    // Served at /v1/study.schema.json, /v1/diagnosis_request.schema.json and
+    // /v1/diagnosis.schema.json (tested above).
+    if (ref == "study.schema.json" || ref == "diagnosis_request.schema.json" ||
+        ref == "diagnosis.schema.json")
+      continue;
     ASSERT_TRUE(ref.starts_with("#/")) << ref;
     EXPECT_TRUE(doc.contains(json::json_pointer(ref.substr(1)))) << ref;
   }

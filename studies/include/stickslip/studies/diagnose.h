@@ -40,6 +40,7 @@
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "stickslip/engine/params.h"
@@ -210,7 +211,10 @@ struct Diagnosis {
 Diagnosis diagnose(const MeasuredDataset& data, const DiagnoseOptions& options = {});
 
 /// diagnosis.json content (fields of issue 5; NaN/Inf as null). series are not included.
+/// Follows schemas/diagnosis.schema.json.
 nlohmann::json to_json(const Diagnosis& d);
+/// The text of schemas/diagnosis.schema.json (embedded at build time).
+std::string_view diagnosis_schema_text() noexcept;
 /// A short human-readable summary.
 std::string summary_text(const Diagnosis& d);
 /// Writes dir/diagnosis.json, the plot data and, when gnuplot is on PATH, PNG plots: per run
