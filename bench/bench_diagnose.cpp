@@ -5,14 +5,23 @@
 #include <chrono>
 #include <cstdio>
 #include <iostream>
+#include <string>
 
 #include "stickslip/studies/diagnose.h"
+#include "stickslip/studies/measured.h"
 #include "stickslip/studies/synth.h"
 
 using namespace stickslip;
 using namespace stickslip::studies;
 
-int main() {
+int main(int argc, char** argv) {
+  // --via-csv DIR: write the dataset as manifest + CSV files (9 significant digits) and diagnose
+  // what loads back, as `stickslip synth` + `stickslip diagnose` do.
+  const std::string via_csv = argc == 3 && std::string(argv[1]) == "--via-csv" ? argv[2] : "";
+  if (argc > 1 && via_csv.empty()) {
+    std::fprintf(stderr, "usage: bench_diagnose [--via-csv DIR]\n");
+    return 2;
+  }
   SynthOptions o;
   o.model = SimConfig::seed(ModelKind::kLuGre, 0.0);
   o.model.extension.kind = ExtensionKind::kViscous;
@@ -26,7 +35,8 @@ int main() {
   o.rate = 2000;
   o.rtol = 1e-8;
   const auto t0 = std::chrono::steady_clock::now();
-  const MeasuredDataset data = synthesize(o);
+  MeasuredDataset data = synthesize(o);
+  if (!via_csv.empty()) data = load_measured(write_dataset(data, via_csv));
   const double t_synth = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const Diagnosis d = diagnose(data, DiagnoseOptions{});
   std::printf("synth: %.1f s; diagnose (3 x 20 s at 2 kHz, 4 models, 8 candidates): %.1f s wall, "
