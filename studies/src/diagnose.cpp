@@ -434,17 +434,16 @@ void whole_run_holdouts(const Problem& P, double rtol_score, const BaseFit& base
   d->gain_heldout_runs = 1.0 - d->rmse_extended_heldout_runs / d->rmse_base_heldout_runs;
 }
 
-/// Indices 0 .. n-1 in the order their work items should start: the most expensive first
-/// (by the rank cost() gives, higher first; ties in index order), so that the two threads of
-/// a dynamic schedule do not end with one long item running alone (measured on the 3 x 20 s
-/// benchmark: the candidates with profile starts cost 2-4x the others, docs/diagnose.md).
-/// The results are stored by index, so the order changes only the wall time.
-template <class Cost>
-std::vector<std::size_t> longest_first(std::size_t n, Cost cost) {
-  std::vector<std::size_t> order(n);
+/// Indices 0 .. rank.size()-1 in the order their work items should start: the highest rank (the
+/// most expensive) first, ties in index order, so that the two threads of a dynamic schedule do
+/// not end with one long item running alone (measured on the 3 x 20 s benchmark: the candidates
+/// with profile starts cost 2-4x the others, docs/diagnose.md). The results are stored by
+/// index, so the order changes only the wall time.
+std::vector<std::size_t> longest_first(const std::vector<int>& rank) {
+  std::vector<std::size_t> order(rank.size());
   std::iota(order.begin(), order.end(), std::size_t{0});
   std::stable_sort(order.begin(), order.end(),
-                   [&](std::size_t a, std::size_t b) { return cost(a) > cost(b); });
+                   [&](std::size_t a, std::size_t b) { return rank[a] > rank[b]; });
   return order;
 }
 
@@ -538,8 +537,9 @@ Diagnosis diagnose(const MeasuredDataset& data, const DiagnoseOptions& o) {
 
   // 1. Calibrate every base model.
   std::vector<BaseFit> bases(o.models.size());
-  const auto model_order =
-      longest_first(o.models.size(), [&](std::size_t i) { return calibration_rank(o.models[i]); });
+  std::vector<int> model_rank;
+  for (ModelKind m : o.models) model_rank.push_back(calibration_rank(m));
+  const auto model_order = longest_first(model_rank);
 #pragma omp parallel for schedule(dynamic, 1) num_threads(threads)
   for (std::size_t j = 0; j < o.models.size(); ++j) {
     const std::size_t i = model_order[j];
@@ -598,8 +598,9 @@ Diagnosis diagnose(const MeasuredDataset& data, const DiagnoseOptions& o) {
   }
   const std::size_t nb = base.theta.size();
   std::vector<CandFit> cands(o.candidates.size());
-  const auto cand_order = longest_first(
-      o.candidates.size(), [&](std::size_t i) { return candidate_rank(o.candidates[i]); });
+  std::vector<int> cand_rank;
+  for (ExtensionKind k : o.candidates) cand_rank.push_back(candidate_rank(k));
+  const auto cand_order = longest_first(cand_rank);
 #pragma omp parallel for schedule(dynamic, 1) num_threads(threads)
   for (std::size_t j = 0; j < o.candidates.size(); ++j) {
     const std::size_t i = cand_order[j];
@@ -618,8 +619,8 @@ Diagnosis diagnose(const MeasuredDataset& data, const DiagnoseOptions& o) {
       // starting size gets its own profile start: the base parameters refitted on the
       // features with the extension held at that size.
       const ExtensionKind kind = o.candidates[i];
-      const bool slip_velocity = kind == ExtensionKind::kViscous || kind == ExtensionKind::kDriveDamping;
-      const bool profile = slip_velocity ||
+      const bool slip_force = kind == ExtensionKind::kViscous || kind == ExtensionKind::kDriveDamping;
+      const bool profile = slip_force ||
                            kind == ExtensionKind::kStribeckShape || kind == ExtensionKind::kDwellTime;
       auto ext_starts = extension_starts(kind, ext, ev, scan, F_C0);
       bool wave_profile = false;
@@ -644,7 +645,7 @@ Diagnosis diagnose(const MeasuredDataset& data, const DiagnoseOptions& o) {
           std::vector<std::vector<double>> origins = {base.theta};
           if (kind == ExtensionKind::kDwellTime)
             origins.push_back(dwell_origin(base.model, base.theta, es[0], es[1], still_period));
-          if (slip_velocity)
+          if (slip_force)
             origins.push_back(slip_velocity_origin(base.model, base.theta, es[0], v_slip));
           const FitResult pr = fit(P, pm, origins, Span::kFeatures, 0, o.max_evals_profile);
           c.res.evals += pr.evals;
@@ -663,7 +664,7 @@ Diagnosis diagnose(const MeasuredDataset& data, const DiagnoseOptions& o) {
           std::size_t iv = nb;
           for (std::size_t j = 0; j < nb; ++j)
             if (base.model.specs[j].name == "v_s") iv = j;
-          if (slip_velocity && iv < nb) {
+          if (slip_force && iv < nb) {
             FitModel hm = pm;
             set_parameter(hm.base, "v_s", base.model.specs[iv].init);
             hm.specs.erase(hm.specs.begin() + static_cast<std::ptrdiff_t>(iv));
@@ -683,7 +684,7 @@ Diagnosis diagnose(const MeasuredDataset& data, const DiagnoseOptions& o) {
         th.insert(th.end(), es.begin(), es.end());
         starts.push_back(th);
       }
-      if (slip_velocity) {
+      if (slip_force) {
         // The size grid is coarse (20, 60, 150) and the profile's minimum narrow on long still
         // stages: refine it by bisection between the best size and its better neighbour.
         for (int step = 0; step < 3; ++step) {

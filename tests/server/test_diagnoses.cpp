@@ -8,6 +8,7 @@
 #include <set>
 
 #include "stickslip/server/api.h"
+#include "stickslip/studies/diagnosis_request.h"
 #include "stickslip/studies/store.h"
 #include "test_support.h"
 
@@ -144,6 +145,21 @@ TEST_F(DiagnosesApi, MissingOrPathLikeFilesArePointed) {
   EXPECT_EQ(stored(), 0u);
 }
 
+// The whole-run options reach the diagnosis' options; the others keep their defaults.
+TEST_F(DiagnosesApi, WholeRunOptionsAreParsed) {
+  json req = request();
+  req["options"]["whole_run_holdout"] = false;
+  req["options"]["max_evals_fold"] = 12;
+  const auto parsed = studies::parse_diagnosis_request(req);
+  ASSERT_TRUE(parsed.ok()) << studies::to_string(parsed.errors);
+  EXPECT_FALSE(parsed.request->options.whole_run_holdout);
+  EXPECT_EQ(parsed.request->options.max_evals_fold, 12);
+  const auto plain = studies::parse_diagnosis_request(request());
+  ASSERT_TRUE(plain.ok());
+  EXPECT_TRUE(plain.request->options.whole_run_holdout);
+  EXPECT_EQ(plain.request->options.max_evals_fold, studies::DiagnoseOptions{}.max_evals_fold);
+}
+
 TEST_F(DiagnosesApi, SchemaAndOptionErrorsArePointed) {
   json req = request();
   req["options"]["max_iters"] = 3;  // unknown option
@@ -161,6 +177,13 @@ TEST_F(DiagnosesApi, SchemaAndOptionErrorsArePointed) {
   req["options"]["max_evals_base"] = 5;  // schema-valid, rejected by DiagnoseOptions::IsValid
   e = rejected(req);
   EXPECT_TRUE(e.count("/options/max_evals_base")) << json(e).dump();
+
+  req = request();
+  req["options"]["max_evals_fold"] = 3;
+  req["options"]["whole_run_holdout"] = "yes";
+  e = rejected(req);
+  EXPECT_NE(e["/options/max_evals_fold"].find("3"), std::string::npos) << json(e).dump();
+  EXPECT_TRUE(e.count("/options/whole_run_holdout")) << json(e).dump();
 
   req = request();
   req["manifest"].erase("runs");
