@@ -28,17 +28,59 @@ WindowSpec make_window(const std::vector<double>& t, const std::vector<double>& 
 
 namespace {
 
+/// Integrals of F and F^2 over [lo, hi] clipped to [t.front(), t.back()], F linear between
+/// samples (the trapezoid rule is exact for the interpolant; F^2 per segment is
+/// (f0^2 + f0 f1 + f1^2) / 3 times its length). Every windowed statistic of the features is
+/// taken from these rather than from the samples inside the window, so that it is continuous in
+/// where the window lies on the samples. With plain sample means, each sample that crosses a
+/// window's edge (a slip moving against its ramp window, or the simulated clock shifted to the
+/// measured phase against the trace's grid) changed a statistic by a step: 3 mN on the first
+/// block after the switch to vibration, where F_d falls from the stick peak (3 x 20 s benchmark).
+/// Those steps made the feature objective a staircase on which Levenberg-Marquardt stopped
+/// short (docs/diagnose.md, session 7).
+struct Moments {
+  double len = 0, s1 = 0, s2 = 0;  ///< covered length [s], integrals of F [N s] and F^2 [N^2 s]
+  int inside = 0;                  ///< samples inside [lo, hi]
+  double mean() const { return s1 / len; }
+  double sd() const { return std::sqrt(std::max(0.0, s2 / len - mean() * mean())); }
+};
+
+Moments moments(const std::vector<double>& t, const std::vector<double>& F, double lo, double hi) {
+  Moments m;
+  if (t.size() < 2) return m;
+  lo = std::max(lo, t.front());
+  hi = std::min(hi, t.back());
+  if (!(hi > lo)) return m;
+  const auto first = std::upper_bound(t.begin(), t.end(), lo) - t.begin();  // t[first] > lo
+  const auto last = std::upper_bound(t.begin(), t.end(), hi) - t.begin();   // t[last] > hi
+  m.inside = static_cast<int>(last - first) + (t[static_cast<std::size_t>(first) - 1] == lo);
+  auto at = [&](std::size_t i, double s) {  // the interpolant on [t[i], t[i + 1]]
+    const double dt = t[i + 1] - t[i];
+    return dt > 0 ? F[i] + (F[i + 1] - F[i]) * (s - t[i]) / dt : F[i + 1];
+  };
+  std::size_t i = static_cast<std::size_t>(first) - 1;  // t[i] <= lo < t[i + 1]
+  double s0 = lo, f0 = at(i, lo);
+  for (; i + 1 < t.size(); ++i) {
+    const double s1 = std::min(t[i + 1], hi);
+    const double f1 = s1 == t[i + 1] ? F[i + 1] : at(i, s1);
+    m.s1 += 0.5 * (f0 + f1) * (s1 - s0);
+    m.s2 += (f0 * f0 + f0 * f1 + f1 * f1) / 3.0 * (s1 - s0);
+    if (s1 >= hi) break;
+    s0 = s1;
+    f0 = f1;
+  }
+  m.len = hi - lo;
+  return m;
+}
+
+/// Mean of F(t) - rise (t - tk) over [tk + a, tk + b] (the whole interval within the samples,
+/// at least three samples inside).
 double ramp_mean(const std::vector<double>& t, const std::vector<double>& F, double tk, double a,
                  double b, double rise, bool* ok) {
-  double s = 0;
-  int n = 0;
-  auto it = std::lower_bound(t.begin(), t.end(), tk + a);
-  for (std::size_t i = static_cast<std::size_t>(it - t.begin()); i < t.size() && t[i] <= tk + b; ++i) {
-    s += F[i] - rise * (t[i] - tk);
-    ++n;
-  }
-  *ok = n >= 3;
-  return n ? s / n : 0.0;
+  const double lo = tk + a, hi = tk + b;
+  const Moments m = moments(t, F, lo, hi);
+  *ok = m.inside >= 3 && t.front() <= lo && hi <= t.back();
+  return *ok ? m.mean() - rise * (0.5 * (lo + hi) - tk) : 0.0;
 }
 
 }  // namespace
@@ -53,24 +95,14 @@ Features extract_features(const std::vector<double>& t, const std::vector<double
     f.blocks.emplace_back();
     const auto i0 = static_cast<std::size_t>(std::lower_bound(t.begin(), t.end(), w.t0) - t.begin());
     {
-      double s1 = 0, s2 = 0;
-      int n = 0;
-      for (std::size_t i = i0; i < t.size() && t[i] <= w.t1; ++i) {
-        s1 += F[i];
-        s2 += F[i] * F[i];
-        ++n;
-      }
-      const double mu = n ? s1 / n : 0.0;
-      f.mean.push_back(mu);
-      f.sd.push_back(n ? std::sqrt(std::max(0.0, s2 / n - mu * mu)) : 0.0);
+      const Moments m = moments(t, F, w.t0, w.t1);
+      f.mean.push_back(m.inside ? m.mean() : 0.0);
+      f.sd.push_back(m.inside ? m.sd() : 0.0);
     }
     if (!w.cycles) {
       for (double b = w.t0; b + 0.25 <= w.t1 + 1e-9; b += 0.25) {
-        double s = 0;
-        int n = 0;
-        for (std::size_t i = i0; i < t.size() && t[i] < b + 0.25; ++i)
-          if (t[i] >= b) { s += F[i]; ++n; }
-        f.blocks.back().push_back(n ? s / n : 0.0);
+        const Moments m = moments(t, F, b, b + 0.25);
+        f.blocks.back().push_back(m.inside ? m.mean() : 0.0);
       }
       continue;
     }

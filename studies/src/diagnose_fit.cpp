@@ -310,7 +310,9 @@ Evaluation evaluate(const Problem& p, const FitModel& m, const std::vector<doubl
       const double t_switch = r.windows.size() > 1 ? r.windows[1].t0 + shift : kInf;
       std::vector<double> t0, f0, t1, f1;
       trace_columns(res.trace, -kInf, t_switch, 0.0, &t0, &f0);
-      trace_columns(res.trace, t_switch, kInf, shift, &t1, &f1);
+      // The later part from 10 ms before the switch, so that the interpolant of the windowed
+      // statistics reaches the window's start wherever the trace's grid lies (diagnose_features.cpp).
+      trace_columns(res.trace, t_switch - 0.01, kInf, shift, &t1, &f1);
       const std::vector<WindowSpec> first(r.windows.begin(), r.windows.begin() + 1),
           later(r.windows.begin() + 1, r.windows.end());
       Features f = extract_features(t0, f0, first, rise);

@@ -90,3 +90,80 @@ TEST(DiagnoseFeatures, LaterStagesAreScoredFromTheMeasuredPhaseOfTheStillCycle) 
   EXPECT_GT(*std::max_element(lu.begin(), lu.end()), 10 * *std::max_element(la.begin(), la.end()))
       << scan;
 }
+
+namespace {
+
+/// A stick-slip sawtooth [N] at t [s]: ramps at `rise` from 6.6 N for 0.4 s, then falls back
+/// linearly in 2 ms.
+double sawtooth(double t, double rise) {
+  const double period = 0.402, ramp = 0.4;
+  const double s = std::fmod(t, period);
+  const double peak = 6.6 + rise * ramp;
+  return s < ramp ? 6.6 + rise * s : peak - (peak - 6.6) * (s - ramp) / (period - ramp);
+}
+
+/// Every windowed feature of the sawtooth sampled at 4 kHz on a grid offset by `delta` [s].
+std::vector<double> sawtooth_features(double delta, const std::vector<diag::WindowSpec>& w,
+                                      double rise, std::size_t* slips) {
+  std::vector<double> t, F;
+  for (double s = delta; s <= 5.0; s += 2.5e-4) {
+    t.push_back(s);
+    F.push_back(sawtooth(s, rise));
+  }
+  const diag::Features f = diag::extract_features(t, F, w, rise);
+  std::vector<double> out;
+  *slips = 0;
+  for (std::size_t k = 0; k < w.size(); ++k) {
+    out.push_back(f.mean[k]);
+    out.push_back(f.sd[k]);
+    out.insert(out.end(), f.blocks[k].begin(), f.blocks[k].end());
+    out.insert(out.end(), f.P[k].begin(), f.P[k].end());
+    out.insert(out.end(), f.Q[k].begin(), f.Q[k].end());
+    for (double tk : f.t[k]) out.push_back(rise * tk);  // as the residual weighs it [N]
+    *slips += f.t[k].size();
+  }
+  return out;
+}
+
+}  // namespace
+
+// The windowed statistics (window mean and sd, block means, the ramp levels P and Q beside each
+// slip) are integrals of the interpolated signal, so they move continuously as the samples slide
+// past the windows' edges. Sample means jumped by (F entering - F leaving) / n whenever a sample
+// crossed an edge (4.6 N / 1000 samples on a sawtooth block), and such steps, on the simulated
+// clock shifted to the measured phase, made the feature objective a staircase on which the fits
+// stopped short (3 x 20 s benchmark, docs/diagnose.md session 7).
+TEST(DiagnoseFeatures, WindowedStatisticsAreContinuousInTheSamplePositions) {
+  const double rise = 11.7;  // k_d v_d of the seed [N/s]
+  std::vector<double> t, F;
+  for (double s = 0; s <= 5.0; s += 2.5e-4) {
+    t.push_back(s);
+    F.push_back(sawtooth(s, rise));
+  }
+  const std::vector<diag::WindowSpec> w = {diag::make_window(t, F, 0.5, 4.5, true),
+                                           diag::make_window(t, F, 0.5, 4.5, false)};
+  ASSERT_TRUE(w[0].cycles);
+  ASSERT_FALSE(w[1].cycles);
+  std::size_t slips0 = 0;
+  std::vector<double> prev = sawtooth_features(0.0, w, rise, &slips0);
+  EXPECT_GE(slips0, 8u);
+  double max_step = 0;
+  // One sample interval (250 us) in 1 us steps: every sample crosses every window edge once.
+  for (int k = 1; k <= 260; ++k) {
+    std::size_t slips = 0;
+    const std::vector<double> cur = sawtooth_features(k * 1e-6, w, rise, &slips);
+    ASSERT_EQ(slips, slips0) << "offset " << k << " us";
+    ASSERT_EQ(cur.size(), prev.size());
+    for (std::size_t i = 0; i < cur.size(); ++i) max_step = std::max(max_step, std::fabs(cur[i] - prev[i]));
+    prev = cur;
+  }
+  // A 1 us shift moves the interpolant by at most the steepest slope (2.3 kN/s in the fall)
+  // times 1 us over a 2 ms stretch of windows 70 ms to 4 s long: well under 0.1 mN. A sample
+  // mean steps by up to 4.6 mN.
+  EXPECT_LT(max_step, 1e-4) << "largest change of a feature between grid offsets 1 us apart";
+  // And the level is right: the sawtooth's mean is 6.6 + rise * 0.2 (ramp and fall alike); the
+  // window holds 9.95 periods, which biases its mean by at most 0.05 * 2.3 N / 9.95.
+  std::size_t slips = 0;
+  const std::vector<double> f = sawtooth_features(1.3e-4, w, rise, &slips);
+  EXPECT_NEAR(f[0], 6.6 + rise * 0.2, 0.02);
+}
