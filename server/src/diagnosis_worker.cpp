@@ -51,6 +51,9 @@ struct DiagnosisWorker::Shared {
   bool done = false;  // the thread has returned
   std::uint64_t notifications = 0;
   std::optional<std::string> running;
+  /// Set (under mu) when the running diagnosis is cancelled or the worker shuts down; polled by
+  /// studies::diagnose through DiagnoseOptions::stop_requested, from its OpenMP threads.
+  std::atomic<bool> stop_running{false};
   std::atomic<std::size_t> finished{0};
 
   /// Under mu: the first queued or running diagnosis, switched to running; empty when none.
@@ -63,6 +66,7 @@ struct DiagnosisWorker::Shared {
         if (rec.state != StudyState::kQueued && rec.state != StudyState::kRunning) continue;
         store.set_diagnosis_state(rec.id, StudyState::kRunning);
         running = rec.id;
+        stop_running = stopping;
         return rec.id;
       }
       if (page.size() < kPage) return {};
@@ -92,8 +96,16 @@ struct DiagnosisWorker::Shared {
                    request->data.runs.size());
       const auto t0 = std::chrono::steady_clock::now();
       std::optional<std::string> result, error;
+      studies::DiagnoseOptions diag_options = request->options;
+      diag_options.stop_requested = [this] { return stop_running.load(); };
       try {
-        result = fn(request->data, request->options).dump();
+        result = fn(request->data, diag_options).dump();
+      } catch (const studies::DiagnosisCancelled&) {
+        // Cancelled (already so in the store) or shutting down (already re-queued): nothing to
+        // store; if the re-queue failed it is still running in the store and reruns next start.
+        spdlog::info("diagnosis {}: stopped after {:.1f} s", id,
+                     std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+        return;
       } catch (const std::exception& e) {
         error = e.what();  // e.g. std::invalid_argument: a dataset diagnose cannot use
       }
@@ -178,6 +190,7 @@ bool DiagnosisWorker::shutdown(std::chrono::milliseconds grace) {
     std::lock_guard lock(shared_->mu);
     shared_->stopping = true;
     running = shared_->running;
+    if (running) shared_->stop_running = true;
   }
   shared_->cv.notify_all();
   if (!thread_.joinable()) return true;
@@ -218,8 +231,10 @@ void DiagnosisWorker::notify_diagnosis() {
 CancelOutcome DiagnosisWorker::cancel_diagnosis(studies::Store& store, const std::string& id) {
   std::lock_guard lock(shared_->mu);
   // Claimed or not, the store decides: a running diagnosis becomes cancelled now and the
-  // worker's finish_diagnosis will not overwrite it.
-  return cancel_diagnosis_unclaimed(store, id);
+  // worker's finish_diagnosis will not overwrite it. A running one is also asked to stop.
+  const CancelOutcome outcome = cancel_diagnosis_unclaimed(store, id);
+  if (outcome == CancelOutcome::kCancelled && shared_->running == id) shared_->stop_running = true;
+  return outcome;
 }
 
 std::optional<std::string> DiagnosisWorker::running() const {

@@ -515,6 +515,13 @@ Diagnosis diagnose(const MeasuredDataset& data, const DiagnoseOptions& o) {
   Diagnosis d;
   d.dataset = data.name;
   d.options = o;
+  d.options.stop_requested = nullptr;  // the result does not keep the caller's callback
+  // Cancellation: the evaluations fail at once (Problem::stop); these checks, in serial code
+  // only (never inside an OpenMP region), turn that into DiagnosisCancelled.
+  auto check_stop = [&o] {
+    if (o.stop_requested && o.stop_requested()) throw DiagnosisCancelled();
+  };
+  check_stop();
   for (const auto& r : P.runs) {
     d.run_names.push_back(r.name);
     d.run_va.push_back(r.cond.va);
@@ -550,6 +557,7 @@ Diagnosis diagnose(const MeasuredDataset& data, const DiagnoseOptions& o) {
       bases[i].cal.status = std::string("failed: ") + e.what();
     }
   }
+  check_stop();
   int best = -1;
   for (std::size_t i = 0; i < bases.size(); ++i) {
     d.evaluations += bases[i].cal.evals;
@@ -756,6 +764,7 @@ Diagnosis diagnose(const MeasuredDataset& data, const DiagnoseOptions& o) {
       c.res.status = std::string("failed: ") + e.what();
     }
   }
+  check_stop();
   for (const auto& c : cands) d.evaluations += c.res.evals;
   // Information criterion of every calibrated base model, on the best base's n_eff.
   auto set_aic = [&](BaseFit& b) {
@@ -785,6 +794,7 @@ Diagnosis diagnose(const MeasuredDataset& data, const DiagnoseOptions& o) {
         polished[j].cal.status = std::string("failed: ") + e.what();
       }
     }
+    check_stop();
     int better = -1;
     for (std::size_t j = 0; j < polished.size(); ++j) {
       d.evaluations += polished[j].cal.evals;
@@ -808,6 +818,7 @@ Diagnosis diagnose(const MeasuredDataset& data, const DiagnoseOptions& o) {
     }
   }
 
+  check_stop();
   // 5. Name the cause.
   d.base_model = base.cal.model;
   d.base_params = base.cal.params;
@@ -851,6 +862,7 @@ Diagnosis diagnose(const MeasuredDataset& data, const DiagnoseOptions& o) {
   // 6. Whole runs held out.
   if (o.whole_run_holdout && P.runs.size() >= 2)
     whole_run_holdouts(P, o.rtol_score, base, cause >= 0 ? &cands[cause] : nullptr, o, threads, &d);
+  check_stop();
   if (o.keep_traces) {
     for (std::size_t k = 0; k < P.runs.size(); ++k) {
       RunSeries s;

@@ -82,6 +82,7 @@ Problem make_problem(const MeasuredDataset& data, const DiagnoseOptions& o) {
   Problem p;
   p.rtol = o.rtol;
   p.fit_offset = o.fit_offset;
+  p.stop = o.stop_requested;
   for (const MeasuredRun& mr : data.runs) {
     RunData r;
     r.name = mr.name;
@@ -226,6 +227,10 @@ void append_windows(Features* a, const Features& b) {
 Evaluation evaluate(const Problem& p, const FitModel& m, const std::vector<double>& theta,
                     Span span, double short_end) {
   Evaluation e;
+  if (p.stop && p.stop()) {
+    e.reason = "cancelled";
+    return e;
+  }
   e.sims.resize(p.runs.size());
   std::vector<double> feat_level, feat_other;
   // Simulated still stages at theta (runs' own traces or phase-only simulations), for the phase

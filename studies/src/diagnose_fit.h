@@ -3,6 +3,7 @@
 // the parameterisation of models and extensions, objective evaluation and the NLopt driver.
 
 #include <cstdint>
+#include <functional>
 #include <limits>
 #include <string>
 #include <vector>
@@ -39,6 +40,8 @@ struct Problem {
   std::vector<RunData> runs;
   double rtol = 1e-5;
   bool fit_offset = true;
+  /// DiagnoseOptions::stop_requested: when it returns true, evaluate fails at once ("cancelled").
+  std::function<bool()> stop;
 };
 
 /// One scalar parameter in the unit box: u in [0, 1] maps to [lo, hi] linearly or in log.

@@ -180,6 +180,52 @@ class FakeDiagnosis {
   bool fail_ = false;
 };
 
+/// A long diagnosis that honours DiagnoseOptions::stop_requested as studies::diagnose does:
+/// it polls the callback until it says stop (then throws DiagnosisCancelled), or returns a
+/// result after 30 s if it never does, so a lost stop fails the test rather than hanging it.
+/// Datasets named "quick" return at once.
+class StoppableDiagnosis {
+ public:
+  DiagnoseFn fn() {
+    return [this](const studies::MeasuredDataset& data, const studies::DiagnoseOptions& o) -> json {
+      if (data.name == "quick") return {{"dataset", data.name}};
+      {
+        std::lock_guard lock(mu_);
+        had_callback_ = static_cast<bool>(o.stop_requested);
+        started_ = true;
+        cv_.notify_all();
+      }
+      const auto end = std::chrono::steady_clock::now() + 30s;
+      while (std::chrono::steady_clock::now() < end) {
+        if (o.stop_requested && o.stop_requested()) {
+          std::lock_guard lock(mu_);
+          stopped_ = true;
+          throw studies::DiagnosisCancelled();
+        }
+        std::this_thread::sleep_for(1ms);
+      }
+      return {{"dataset", data.name}};
+    };
+  }
+  void wait_started() {
+    std::unique_lock lock(mu_);
+    EXPECT_TRUE(cv_.wait_for(lock, 20s, [&] { return started_; }));
+  }
+  bool had_callback() {
+    std::lock_guard lock(mu_);
+    return had_callback_;
+  }
+  bool stopped() {
+    std::lock_guard lock(mu_);
+    return stopped_;
+  }
+
+ private:
+  std::mutex mu_;
+  std::condition_variable cv_;
+  bool started_ = false, had_callback_ = false, stopped_ = false;
+};
+
 class DiagnosisWorkerFake : public ::testing::Test {
  protected:
   DiagnosisWorkerFake() { ao_.db = dir_ / "d.db"; }
@@ -284,6 +330,42 @@ TEST_F(DiagnosisWorkerFake, ShutdownLeavesTheRunningDiagnosisQueuedForTheNextSta
   const json d = wait_state(api, id, {"succeeded"});
   EXPECT_EQ(d["result"]["dataset"], "s");
   EXPECT_TRUE(next.shutdown());
+}
+
+TEST_F(DiagnosisWorkerFake, CancelWhileRunningStopsTheComputation) {
+  StoppableDiagnosis slow;
+  DiagnosisWorker worker(ao_.db, wo(), slow.fn());
+  Api api(ao_, nullptr, &worker);
+  worker.start();
+  const std::string id = queue("long");
+  worker.notify_diagnosis();
+  slow.wait_started();
+  EXPECT_TRUE(slow.had_callback());
+  const Response c = api.handle(post_json("/v1/diagnoses/" + id + ":cancel", ""));
+  ASSERT_EQ(c.status, 200) << c.body;
+  // The computation ends because it was told to (a lost stop would take 30 s and return).
+  for (int i = 0; i < 3000 && worker.finished() < 1; ++i) std::this_thread::sleep_for(10ms);
+  EXPECT_EQ(worker.finished(), 1u);
+  EXPECT_TRUE(slow.stopped());
+  const json d = body_json(api.handle(get("/v1/diagnoses/" + id)));
+  EXPECT_EQ(d["state"], "cancelled");
+  EXPECT_TRUE(d["result"].is_null());
+  // The worker is free for the next one.
+  const std::string next = queue("quick");
+  worker.notify_diagnosis();
+  EXPECT_EQ(wait_state(api, next, {"succeeded"})["result"]["dataset"], "quick");
+}
+
+TEST_F(DiagnosisWorkerFake, ShutdownStopsTheRunningComputationAndRequeuesIt) {
+  StoppableDiagnosis slow;
+  const std::string id = queue("long");
+  DiagnosisWorker worker(ao_.db, wo(), slow.fn());
+  worker.start();
+  slow.wait_started();
+  // The thread ends (joined, not detached) because the computation was told to stop.
+  EXPECT_TRUE(worker.shutdown(20s));
+  EXPECT_TRUE(slow.stopped());
+  EXPECT_EQ(state(id), StudyState::kQueued);
 }
 
 }  // namespace

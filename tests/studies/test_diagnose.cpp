@@ -17,6 +17,7 @@
 
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <cmath>
 #include <cstdlib>
 #include <string>
@@ -142,6 +143,38 @@ void run_case(const HiddenCase& c) {
 }
 
 }  // namespace
+
+// Cancellation (the server's worker sets stop_requested when a running diagnosis is cancelled or
+// the server shuts down): once the callback says stop, the evaluations fail at once and the
+// diagnosis throws DiagnosisCancelled instead of returning a result.
+TEST(Diagnose, StopRequestedEndsTheDiagnosisWithDiagnosisCancelled) {
+  const MeasuredDataset data = synthesize(short_dataset(11));
+  DiagnoseOptions o;
+  o.models = {ModelKind::kLuGre};
+  o.candidates = {ExtensionKind::kViscous, ExtensionKind::kDrift};
+  o.max_evals_base = 20;
+  o.max_evals_candidate = 20;
+  o.whole_run_holdout = false;
+  o.keep_traces = false;
+
+  // Never stopped: it polls before every evaluation and finishes; the result keeps no callback.
+  std::atomic<int> polls{0};
+  o.stop_requested = [&] {
+    ++polls;
+    return false;
+  };
+  const Diagnosis full = diagnose(data, o);
+  EXPECT_GE(polls.load(), full.evaluations);
+  EXPECT_FALSE(full.options.stop_requested);
+
+  // Stopped during the base calibration, and again during the candidates.
+  for (const int stop_after : {5, full.evaluations / 2}) {
+    std::atomic<int> n{0};
+    o.stop_requested = [&] { return ++n > stop_after; };
+    EXPECT_THROW(diagnose(data, o), DiagnosisCancelled) << "stop after " << stop_after;
+    EXPECT_GT(n.load(), stop_after);
+  }
+}
 
 class HiddenEffect : public ::testing::TestWithParam<HiddenCase> {};
 

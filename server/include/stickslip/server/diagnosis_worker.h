@@ -9,13 +9,17 @@
 // - A diagnosis is claimed under a mutex, which also switches it to running in the store; a
 //   cancel takes the same mutex, so it either cancels a waiting diagnosis in the store or finds
 //   it claimed.
-// - studies::diagnose cannot be interrupted. Cancelling a running diagnosis marks it cancelled at
-//   once; its computation goes on until it ends and its result is then discarded (the store
-//   only accepts a result while the diagnosis is queued or running).
+// - Cancelling a running diagnosis marks it cancelled in the store at once and asks the
+//   computation to stop: the options passed to the diagnose function carry a stop_requested
+//   callback (DiagnoseOptions), which studies::diagnose polls before every model evaluation, so
+//   it ends within one evaluation per thread (DiagnosisCancelled) and the worker takes the next
+//   diagnosis. Whatever result a diagnose function still returns is discarded (the store only
+//   accepts a result while the diagnosis is queued or running).
 // - shutdown(grace): no diagnosis is claimed any more; a running one is put back to queued in
-//   the store at once (so the next start reruns it), then the thread gets `grace` to finish. If
-//   it finishes, its result is stored; if not, the thread is detached (it owns everything it
-//   uses) and shutdown returns false, so the process can exit without waiting minutes.
+//   the store at once (so the next start reruns it) and asked to stop, then the thread gets
+//   `grace` to end. A diagnose function that ignores the callback and finishes within the grace
+//   has its result stored; if the thread does not end in time it is detached (it owns
+//   everything it uses) and shutdown returns false, so the process can exit without waiting.
 // - A stored request that no longer parses (e.g. the schema changed) fails with the errors.
 
 #include <atomic>

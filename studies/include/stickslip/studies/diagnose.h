@@ -38,6 +38,8 @@
 //    fit set (base n_eff for all).
 
 #include <filesystem>
+#include <functional>
+#include <stdexcept>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <string_view>
@@ -74,8 +76,17 @@ struct DiagnoseOptions {
   bool whole_run_holdout = true;
   int max_evals_fold = 30;              ///< evaluations per refit of a left-out-run fold
   int threads = 0;                      ///< OpenMP threads (0 = default)
+  /// Polled before every model evaluation (from any thread; must be thread-safe). Once it
+  /// returns true, the evaluations fail at once and diagnose throws DiagnosisCancelled. Not part
+  /// of a request: the server's worker sets it to stop a cancelled or interrupted diagnosis.
+  std::function<bool()> stop_requested;
 
   bool IsValid(std::string* why) const;
+};
+
+/// Thrown by diagnose when DiagnoseOptions::stop_requested returned true.
+struct DiagnosisCancelled : std::runtime_error {
+  DiagnosisCancelled() : std::runtime_error("diagnosis cancelled") {}
 };
 
 struct ParamEstimate {
