@@ -107,6 +107,10 @@ struct DiagnosisWorker::Shared {
                      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
         return;
       } catch (const std::exception& e) {
+        if (stop_running) {  // failed because it was told to stop: not the dataset's fault
+          spdlog::info("diagnosis {}: stopped ({})", id, e.what());
+          return;
+        }
         error = e.what();  // e.g. std::invalid_argument: a dataset diagnose cannot use
       }
       const double secs =

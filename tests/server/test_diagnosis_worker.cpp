@@ -183,9 +183,11 @@ class FakeDiagnosis {
 /// A long diagnosis that honours DiagnoseOptions::stop_requested as studies::diagnose does:
 /// it polls the callback until it says stop (then throws DiagnosisCancelled), or returns a
 /// result after 30 s if it never does, so a lost stop fails the test rather than hanging it.
-/// Datasets named "quick" return at once.
+/// Datasets named "quick" return at once. plain_error: stop with a std::runtime_error instead,
+/// as a diagnosis whose evaluations failed under the stop might.
 class StoppableDiagnosis {
  public:
+  explicit StoppableDiagnosis(bool plain_error = false) : plain_error_(plain_error) {}
   DiagnoseFn fn() {
     return [this](const studies::MeasuredDataset& data, const studies::DiagnoseOptions& o) -> json {
       if (data.name == "quick") return {{"dataset", data.name}};
@@ -200,6 +202,7 @@ class StoppableDiagnosis {
         if (o.stop_requested && o.stop_requested()) {
           std::lock_guard lock(mu_);
           stopped_ = true;
+          if (plain_error_) throw std::runtime_error("no base model could be calibrated");
           throw studies::DiagnosisCancelled();
         }
         std::this_thread::sleep_for(1ms);
@@ -224,6 +227,7 @@ class StoppableDiagnosis {
   std::mutex mu_;
   std::condition_variable cv_;
   bool started_ = false, had_callback_ = false, stopped_ = false;
+  const bool plain_error_;
 };
 
 class DiagnosisWorkerFake : public ::testing::Test {
@@ -357,15 +361,21 @@ TEST_F(DiagnosisWorkerFake, CancelWhileRunningStopsTheComputation) {
 }
 
 TEST_F(DiagnosisWorkerFake, ShutdownStopsTheRunningComputationAndRequeuesIt) {
-  StoppableDiagnosis slow;
-  const std::string id = queue("long");
-  DiagnosisWorker worker(ao_.db, wo(), slow.fn());
-  worker.start();
-  slow.wait_started();
-  // The thread ends (joined, not detached) because the computation was told to stop.
-  EXPECT_TRUE(worker.shutdown(20s));
-  EXPECT_TRUE(slow.stopped());
-  EXPECT_EQ(state(id), StudyState::kQueued);
+  // Whether the stopped computation throws DiagnosisCancelled or another error, the re-queued
+  // diagnosis stays queued (an error caused by the stop is not stored as its failure).
+  for (const bool plain_error : {false, true}) {
+    StoppableDiagnosis slow(plain_error);
+    const std::string id = queue(plain_error ? "long-plain" : "long");
+    DiagnosisWorker worker(ao_.db, wo(), slow.fn());
+    worker.start();
+    slow.wait_started();
+    // The thread ends (joined, not detached) because the computation was told to stop.
+    EXPECT_TRUE(worker.shutdown(20s));
+    EXPECT_TRUE(slow.stopped());
+    EXPECT_EQ(state(id), StudyState::kQueued) << "plain error: " << plain_error;
+    auto store = studies::Store::open(ao_.db);
+    store.set_diagnosis_state(id, StudyState::kCancelled);  // out of the next round's way
+  }
 }
 
 }  // namespace
