@@ -100,15 +100,15 @@ struct DiagnosisWorker::Shared {
       diag_options.stop_requested = [this] { return stop_running.load(); };
       try {
         result = fn(request->data, diag_options).dump();
-      } catch (const studies::DiagnosisCancelled&) {
-        // Cancelled (already so in the store) or shutting down (already re-queued): nothing to
-        // store; if the re-queue failed it is still running in the store and reruns next start.
-        spdlog::info("diagnosis {}: stopped after {:.1f} s", id,
-                     std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
-        return;
       } catch (const std::exception& e) {
-        if (stop_running) {  // failed because it was told to stop: not the dataset's fault
-          spdlog::info("diagnosis {}: stopped ({})", id, e.what());
+        if (stop_running) {
+          // Told to stop (studies::DiagnosisCancelled, or whatever failed under the stop): it
+          // was cancelled (already so in the store) or is shutting down (already re-queued),
+          // so nothing is stored; if the re-queue failed it is still running in the store and
+          // reruns at the next start.
+          spdlog::info("diagnosis {}: stopped after {:.1f} s ({})", id,
+                       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(),
+                       e.what());
           return;
         }
         error = e.what();  // e.g. std::invalid_argument: a dataset diagnose cannot use
