@@ -1,0 +1,100 @@
+// The diagnosis' Levenberg-Marquardt (studies/src/diagnose_fit.cpp) on the seed's long runs.
+// Over a 10 s still stage (about 30 slips) the slip timing makes both objectives narrow curved
+// valleys: a forward-difference Jacobian over a step wider than the valley is a biased secant,
+// every Gauss-Newton step comes out short, and the search crawls along the valley instead of
+// failing, so refining the step only on failure never happened. At the seed's conditions that
+// left the base calibration at 0.20 N fit RMS for noise of 0.03 N, and a too-small hidden
+// effect (viscous sigma2 = 1 N s/m) was then named stribeck_shape, whose extra evaluations had
+// gone further down the same valley (docs/diagnose.md "Status on main (session 8)").
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "diagnose_fit.h"
+#include "stickslip/engine/metrics.h"
+#include "stickslip/studies/diagnose_suite.h"
+#include "stickslip/studies/synth.h"
+
+using namespace stickslip;
+using namespace stickslip::studies;
+
+namespace {
+
+HiddenCase find_case(const std::string& name) {
+  for (const HiddenCase& h : hidden_effect_cases())
+    if (h.name == name) return h;
+  throw std::runtime_error("no hidden case " + name);
+}
+
+double fit_rms(const diag::Problem& p, const diag::FitModel& m, const std::vector<double>& th) {
+  const diag::Evaluation e = diag::evaluate(p, m, th, diag::Span::kFit, 0);
+  EXPECT_TRUE(e.ok) << e.reason;
+  return std::sqrt(e.sse_fit / static_cast<double>(e.n_fit));
+}
+
+}  // namespace
+
+// The seed's three runs (3 x 20 s, t_on = 10 s, v_a = 0, 1.1 and 4 mm/s), LuGre 5-10 % off
+// Table 1 with a viscous term too small to matter (sigma2 = 1 N s/m), white noise 0.03 N. The
+// LuGre base is fitted as the diagnosis calibrates it (diagnose.cpp, calibrate): the cycle
+// features from the data-driven start, then the time domain from there, with the default
+// budget (70 evaluations). Both stages must reach the valley floor: the features within a few
+// times the true model's feature SSE, the time domain within 3 % of the true model's fit RMS.
+// Before the crawl detection: feature SSE 0.146 (truth 0.0007) and fit RMS 0.201 N (truth
+// 0.0300 N); with it: 0.0013 and 0.0302 N.
+TEST(DiagnoseFit, BaseCalibrationReachesTheValleyFloorOnTheSeedsLongRuns) {
+  const SynthOptions so = hidden_case_dataset(find_case("small_viscous"), 1000, SuiteDatasets::kSeed);
+  const diag::Problem p = diag::make_problem(synthesize(so), hidden_case_options(SuiteDatasets::kSeed));
+  ASSERT_EQ(p.runs.size(), 3u);
+
+  // The true model: LuGre with the hidden viscous term.
+  diag::FitModel truth;
+  truth.base = SimConfig::seed(ModelKind::kLuGre, 0.0);
+  truth.base.extension.kind = ExtensionKind::kViscous;
+  truth.specs = diag::base_specs(ModelKind::kLuGre, 8.3, 11.1);
+  const auto ext = diag::extension_specs(ExtensionKind::kViscous);
+  truth.specs.insert(truth.specs.end(), ext.begin(), ext.end());
+  const FrictionParams& f = so.model.friction;
+  const std::vector<double> th_true = {f.F_S, f.F_C / f.F_S, f.v_s, 1.0};
+  const double rms_true = fit_rms(p, truth, th_true);
+  const diag::Evaluation ft = diag::evaluate(p, truth, th_true, diag::Span::kFeatures, 0);
+  ASSERT_TRUE(ft.ok) << ft.reason;
+
+  // Data-driven start, as diagnose() computes it: stage-1 mean and amplitude.
+  double mean_sum = 0, amp_sum = 0;
+  for (const auto& r : p.runs) {
+    StageAccumulator acc(0.0, r.stage_start.at(1), MetricOptions{});
+    for (std::size_t i = 0; i < r.t.size() && r.t[i] <= r.stage_start[1]; ++i)
+      acc.sample(r.t[i], r.y[i], r.y[i]);
+    const StageMetrics m = acc.finish();
+    mean_sum += m.mean_force;
+    amp_sum += m.amplitude;
+  }
+  const double F_C0 = mean_sum / 3, F_S0 = F_C0 + 0.5 * amp_sum / 3;
+  diag::FitModel base;
+  base.base = SimConfig::seed(ModelKind::kLuGre, 0.0);
+  base.specs = diag::base_specs(ModelKind::kLuGre, F_C0, F_S0);
+  std::vector<double> init;
+  for (const auto& s : base.specs) init.push_back(s.init);
+  const double rms_init = fit_rms(p, base, init);
+
+  const DiagnoseOptions o;
+  const int n_features = o.max_evals_base * 2 / 5;
+  const diag::FitResult a = diag::fit(p, base, {init}, diag::Span::kFeatures, 0, n_features);
+  ASSERT_TRUE(a.ok) << a.reason;
+  EXPECT_LE(a.evals, n_features);
+  EXPECT_LT(a.sse, 3.0 * ft.sse_fit) << "feature SSE " << a.sse << ", truth " << ft.sse_fit;
+
+  const diag::FitResult b = diag::fit(p, base, {a.theta, init}, diag::Span::kFit, 0,
+                                      o.max_evals_base - a.evals);
+  ASSERT_TRUE(b.ok) << b.reason;
+  EXPECT_LE(b.evals, o.max_evals_base - a.evals);
+  const double rms_fit = fit_rms(p, base, b.theta);
+  EXPECT_LT(rms_fit, 1.03 * rms_true) << "start " << rms_init << " N, truth " << rms_true << " N";
+  // And not by an offset alone: F_S within 0.2 % (the viscous term's 1 N s/m x ~0.02 m/s slip
+  // velocity is absorbed by F_C, which is therefore not compared).
+  EXPECT_NEAR(b.theta[0], f.F_S, 2e-3 * f.F_S);
+  RecordProperty("fit_rms_mN", static_cast<int>(std::lround(1e3 * rms_fit)));
+}
