@@ -12,8 +12,9 @@
 //    Parameters are mapped to a unit box (log scale for scale parameters). Every fit starts on
 //    per-cycle / per-stage features (slip times, stick ramps, stage-2 block means, window mean
 //    and standard deviation; diagnose_features.h), fitted by Levenberg-Marquardt, then refines
-//    in the time domain by Levenberg-Marquardt on the sample residuals (NLopt's BOBYQA only
-//    when LM makes no step). Extensions start from the base optimum plus
+//    in the time domain by Levenberg-Marquardt on the sample residuals (its Jacobian's step
+//    refined when the steps crawl along the slip-timing valley; NLopt's BOBYQA only when LM
+//    makes no step). Extensions start from the base optimum plus
 //    starting values of their own (residual spectrum against x for waviness, phase grids), and
 //    the slip-acting ones (viscous, drive_damping, stribeck_shape, dwell_time) from profile
 //    starts: the base refitted on the features with the extension held at each starting size
