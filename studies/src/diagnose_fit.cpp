@@ -575,8 +575,8 @@ FitResult fit(const Problem& p, const FitModel& m, const std::vector<std::vector
   // there and, with a finer stopping step, at 0.0301 / 0.0304 N; Gauss-Newton steps reach
   // 0.0295 / 0.0292 N (F_S 11.7665 for 11.766 N, v_s 3.21e-4 for 3.22e-4 m/s) in as many
   // evaluations (measured, docs/diagnose.md "Scoring and the time-domain fit").
-  // The Jacobian's step (1e-4 in u, 6e-4 N of F_S; refined to 1e-5 when the search crawls)
-  // is above the integration noise at rtol 1e-5 (fit RMS equal to 6 digits from rtol 1e-5 to
+  // The Jacobian's step (1e-4 in u, 6e-4 N of F_S; refined, down to 1e-5, when the steps
+  // crawl or fail) is above the integration noise at rtol 1e-5 (fit RMS equal to 6 digits from rtol 1e-5 to
   // 1e-8 there).
   const double start_best = c.best;
   c.fd_step = kTimeDomainStep;
