@@ -529,18 +529,8 @@ Diagnosis diagnose(const MeasuredDataset& data, const DiagnoseOptions& o) {
   const int threads = o.threads > 0 ? o.threads : omp_get_max_threads();
 
   // Data-driven starting values from the measured first stage of every run.
-  double mean_sum = 0, amp_sum = 0;
-  int n_st = 0;
-  for (const auto& r : P.runs) {
-    const double t1 = r.stage_start.size() > 1 ? r.stage_start[1] : r.cond.duration;
-    StageAccumulator acc(0.0, t1, MetricOptions{});
-    for (std::size_t i = 0; i < r.t.size() && r.t[i] <= t1; ++i) acc.sample(r.t[i], r.y[i], r.y[i]);
-    const StageMetrics m = acc.finish();
-    mean_sum += m.mean_force;
-    amp_sum += m.amplitude;
-    ++n_st;
-  }
-  const double F_C0 = mean_sum / n_st, F_S0 = F_C0 + 0.5 * amp_sum / n_st;
+  const StartLevels start = data_driven_start(P);
+  const double F_C0 = start.F_C0, F_S0 = start.F_S0;
 
   // 1. Calibrate every base model.
   std::vector<BaseFit> bases(o.models.size());

@@ -145,6 +145,25 @@ Problem make_problem(const MeasuredDataset& data, const DiagnoseOptions& o) {
   return p;
 }
 
+StartLevels data_driven_start(const Problem& p) {
+  double mean_sum = 0, amp_sum = 0;
+  int n = 0;
+  for (const auto& r : p.runs) {
+    const double t1 = r.stage_start.size() > 1 ? r.stage_start[1] : r.cond.duration;
+    StageAccumulator acc(0.0, t1, MetricOptions{});
+    for (std::size_t i = 0; i < r.t.size() && r.t[i] <= t1; ++i) acc.sample(r.t[i], r.y[i], r.y[i]);
+    const StageMetrics m = acc.finish();
+    mean_sum += m.mean_force;
+    amp_sum += m.amplitude;
+    ++n;
+  }
+  StartLevels s;
+  if (n == 0) return s;
+  s.F_C0 = mean_sum / n;
+  s.F_S0 = s.F_C0 + 0.5 * amp_sum / n;
+  return s;
+}
+
 namespace {
 
 double span_end(const RunData& r, Span span, double short_end) {
@@ -437,6 +456,7 @@ struct Ctx {
   std::string last_reason;
   double fd_step = kFeatureStep;  ///< forward-difference step of the LM Jacobian (unit box)
   double fd_step_min = kFeatureStepMin;  ///< refined down to this when steps fail
+  bool refine_on_crawl = false;  ///< also refine when accepted steps crawl (kCrawlRatio)
 };
 
 std::vector<double> to_theta(const FitModel& m, const std::vector<double>& u) {
@@ -526,7 +546,7 @@ void levenberg_marquardt(Ctx& c, unsigned n) {
         // Accepted, but far from the model's prediction while the damping is low: the forward
         // difference spans more than the valley is wide, so every Gauss-Newton step is short
         // and the search crawls along the valley. Refine the Jacobian's step.
-        if (crawl && c.span != Span::kFeatures && lambda < 1e-2 && c.fd_step > c.fd_step_min)
+        if (crawl && c.refine_on_crawl && lambda < 1e-2 && c.fd_step > c.fd_step_min)
           c.fd_step = std::max(c.fd_step / 10, c.fd_step_min);
         break;
       }
@@ -576,11 +596,12 @@ FitResult fit(const Problem& p, const FitModel& m, const std::vector<std::vector
   // 0.0295 / 0.0292 N (F_S 11.7665 for 11.766 N, v_s 3.21e-4 for 3.22e-4 m/s) in as many
   // evaluations (measured, docs/diagnose.md "Scoring and the time-domain fit").
   // The Jacobian's step (1e-4 in u, 6e-4 N of F_S; refined, down to 1e-5, when the steps
-  // crawl or fail) is above the integration noise at rtol 1e-5 (fit RMS equal to 6 digits from rtol 1e-5 to
-  // 1e-8 there).
+  // crawl or fail) is above the integration noise at rtol 1e-5 (fit RMS equal to 6 digits
+  // from rtol 1e-5 to 1e-8 there).
   const double start_best = c.best;
   c.fd_step = kTimeDomainStep;
   c.fd_step_min = kTimeDomainStepMin;
+  c.refine_on_crawl = true;
   levenberg_marquardt(c, n);
   const int left = max_evals - c.evals;
   if (!(c.best < start_best) && left > 2 * static_cast<int>(n)) {  // LM made no step: BOBYQA

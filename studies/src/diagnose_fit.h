@@ -124,4 +124,11 @@ std::vector<double> neutral_extension(ExtensionKind k);
 /// Builds the problem from the dataset (decimation and roles).
 Problem make_problem(const MeasuredDataset& data, const DiagnoseOptions& o);
 
+/// Data-driven starting levels for base_specs from the measured first stage of every run:
+/// F_C0 = mean of the stage means, F_S0 = F_C0 + half the mean peak-to-peak amplitude [N].
+struct StartLevels {
+  double F_C0 = 0, F_S0 = 0;
+};
+StartLevels data_driven_start(const Problem& p);
+
 }  // namespace stickslip::studies::diag

@@ -1,6 +1,8 @@
 #include "stickslip/studies/diagnose_suite.h"
 
 #include <cmath>
+#include <stdexcept>
+#include <utility>
 
 namespace stickslip::studies {
 
@@ -75,6 +77,12 @@ std::vector<HiddenCase> hidden_effect_cases() {
   small.in_ci = false;
   c.push_back(small);
   return c;
+}
+
+HiddenCase hidden_case(std::string_view name) {
+  for (HiddenCase& c : hidden_effect_cases())
+    if (c.name == name) return std::move(c);
+  throw std::invalid_argument("hidden case \"" + std::string(name) + "\": no such case");
 }
 
 SynthOptions hidden_case_dataset(const HiddenCase& c, std::uint64_t seed, SuiteDatasets family) {

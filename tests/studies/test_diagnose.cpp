@@ -52,6 +52,17 @@ SynthOptions short_dataset(std::uint64_t seed) {
 
 }  // namespace
 
+TEST(HiddenCases, LookupByNameFindsTheCaseAndNamesAnUnknownOne) {
+  EXPECT_EQ(hidden_case("dwell_time").kind, ExtensionKind::kDwellTime);
+  EXPECT_EQ(hidden_case("small_viscous").value, 1.0);
+  try {
+    hidden_case("dwel_time");
+    ADD_FAILURE() << "no error for an unknown case";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("\"dwel_time\""), std::string::npos) << e.what();
+  }
+}
+
 TEST(Synth, WritesADatasetThatLoadsBack) {
   stickslip::testing::TempDir dir;
   SynthOptions o = short_dataset(3);

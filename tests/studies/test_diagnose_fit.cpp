@@ -9,11 +9,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <string>
 #include <vector>
 
 #include "diagnose_fit.h"
-#include "stickslip/engine/metrics.h"
 #include "stickslip/studies/diagnose_suite.h"
 #include "stickslip/studies/synth.h"
 
@@ -21,12 +19,6 @@ using namespace stickslip;
 using namespace stickslip::studies;
 
 namespace {
-
-HiddenCase find_case(const std::string& name) {
-  for (const HiddenCase& h : hidden_effect_cases())
-    if (h.name == name) return h;
-  throw std::runtime_error("no hidden case " + name);
-}
 
 double fit_rms(const diag::Problem& p, const diag::FitModel& m, const std::vector<double>& th) {
   const diag::Evaluation e = diag::evaluate(p, m, th, diag::Span::kFit, 0);
@@ -44,7 +36,7 @@ double fit_rms(const diag::Problem& p, const diag::FitModel& m, const std::vecto
 // 42 in the time domain). The time domain must reach the valley floor: within 3 % of the true
 // model's fit RMS. Before the crawl detection: 0.201 N (truth 0.0300 N); with it 0.0302 N.
 TEST(DiagnoseFit, BaseCalibrationReachesTheValleyFloorOnTheSeedsLongRuns) {
-  const SynthOptions so = hidden_case_dataset(find_case("small_viscous"), 1000, SuiteDatasets::kSeed);
+  const SynthOptions so = hidden_case_dataset(hidden_case("small_viscous"), 1000, SuiteDatasets::kSeed);
   const diag::Problem p = diag::make_problem(synthesize(so), hidden_case_options(SuiteDatasets::kSeed));
   ASSERT_EQ(p.runs.size(), 3u);
 
@@ -59,20 +51,11 @@ TEST(DiagnoseFit, BaseCalibrationReachesTheValleyFloorOnTheSeedsLongRuns) {
   const std::vector<double> th_true = {f.F_S, f.F_C / f.F_S, f.v_s, 1.0};
   const double rms_true = fit_rms(p, truth, th_true);
 
-  // Data-driven start, as diagnose() computes it: stage-1 mean and amplitude.
-  double mean_sum = 0, amp_sum = 0;
-  for (const auto& r : p.runs) {
-    StageAccumulator acc(0.0, r.stage_start.at(1), MetricOptions{});
-    for (std::size_t i = 0; i < r.t.size() && r.t[i] <= r.stage_start[1]; ++i)
-      acc.sample(r.t[i], r.y[i], r.y[i]);
-    const StageMetrics m = acc.finish();
-    mean_sum += m.mean_force;
-    amp_sum += m.amplitude;
-  }
-  const double F_C0 = mean_sum / 3, F_S0 = F_C0 + 0.5 * amp_sum / 3;
+  // The data-driven start diagnose() uses: stage-1 mean and amplitude.
+  const diag::StartLevels start = diag::data_driven_start(p);
   diag::FitModel base;
   base.base = SimConfig::seed(ModelKind::kLuGre, 0.0);
-  base.specs = diag::base_specs(ModelKind::kLuGre, F_C0, F_S0);
+  base.specs = diag::base_specs(ModelKind::kLuGre, start.F_C0, start.F_S0);
   std::vector<double> init;
   for (const auto& s : base.specs) init.push_back(s.init);
   const double rms_init = fit_rms(p, base, init);

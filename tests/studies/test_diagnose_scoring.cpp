@@ -18,11 +18,7 @@ using namespace stickslip::studies;
 namespace {
 
 const HiddenCase& clean_case() {
-  static const HiddenCase c = [] {
-    for (const HiddenCase& h : hidden_effect_cases())
-      if (h.name == "clean_white") return h;
-    throw std::runtime_error("no clean_white case");
-  }();
+  static const HiddenCase c = hidden_case("clean_white");
   return c;
 }
 

@@ -14,12 +14,7 @@ using namespace stickslip::studies;
 
 namespace {
 
-HiddenCase waviness_case() {
-  for (const auto& c : hidden_effect_cases())
-    if (c.name == "waviness") return c;
-  ADD_FAILURE() << "no waviness case";
-  return {};
-}
+HiddenCase waviness_case() { return hidden_case("waviness"); }
 
 diag::Problem problem_of(const HiddenCase& c, std::uint64_t seed) {
   return diag::make_problem(synthesize(hidden_case_dataset(c, seed, SuiteDatasets::kCi)),

@@ -13,6 +13,7 @@
 #include <cstdint>
 #include <ostream>
 #include <string>
+#include <string_view>
 #include <utility>
 #include <vector>
 
@@ -54,6 +55,8 @@ inline void PrintTo(const HiddenCase& c, std::ostream* os) { *os << c.name; }
 /// Every catalogue effect at a moderate size, the nulls (white and AR(1) noise) and a few
 /// effects too small to see.
 std::vector<HiddenCase> hidden_effect_cases();
+/// The case of hidden_effect_cases() with this name; std::invalid_argument naming it otherwise.
+HiddenCase hidden_case(std::string_view name);
 
 /// The suite's dataset families.
 enum class SuiteDatasets {
