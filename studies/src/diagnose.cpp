@@ -229,12 +229,13 @@ double slip_velocity(const Problem& P, const Evaluation& e) {
   return s1 > 0 ? s2 / s1 : 0.0;
 }
 
-/// A profile point of a one-parameter extension: the base parameters refitted on the cycle
-/// features with the extension held at size.
+/// A profile point of an extension: the base parameters refitted on the cycle features with the
+/// extension held at (size, rest).
 struct ProfilePoint {
   double size;
   double sse;                 ///< feature SSE of the refit
   std::vector<double> theta;  ///< base parameters
+  std::vector<double> rest;   ///< the extension's other parameters (dwell_tau), held too
 };
 
 const ProfilePoint& best_profile(const std::vector<ProfilePoint>& p) {
@@ -242,13 +243,15 @@ const ProfilePoint& best_profile(const std::vector<ProfilePoint>& p) {
                            [](const ProfilePoint& a, const ProfilePoint& b) { return a.sse < b.sse; });
 }
 
-/// The next size to profile: between the best point and its better neighbour (in size), at the
-/// geometric mean (arithmetic next to size 0); 0 when the best is bracketed to 5 % already or has
-/// no neighbour.
+/// The next size to profile: between the best point and its better neighbour (in size, among the
+/// points with the best one's other parameters), at the geometric mean (arithmetic next to size
+/// 0); 0 when the best is bracketed to 5 % already or has no neighbour.
 double next_profile_size(const std::vector<ProfilePoint>& p) {
-  const double b = best_profile(p).size;
+  const ProfilePoint& best = best_profile(p);
+  const double b = best.size;
   const ProfilePoint *lo = nullptr, *hi = nullptr;
   for (const ProfilePoint& q : p) {
+    if (q.rest != best.rest) continue;
     if (q.size < b && (!lo || q.size > lo->size)) lo = &q;
     if (q.size > b && (!hi || q.size < hi->size)) hi = &q;
   }
@@ -588,8 +591,9 @@ Diagnosis diagnose(const MeasuredDataset& data, const DiagnoseOptions& o) {
   const double v_slip = slip_velocity(P, base.full);
   double base_feature_sse = std::numeric_limits<double>::infinity();  // profile size 0
   if (std::any_of(o.candidates.begin(), o.candidates.end(), [](ExtensionKind k) {
-        return k == ExtensionKind::kViscous || k == ExtensionKind::kDriveDamping;
-      })) {  // only the slip-velocity candidates' profile bisection uses it
+        return k == ExtensionKind::kViscous || k == ExtensionKind::kDriveDamping ||
+               k == ExtensionKind::kDwellTime;
+      })) {  // only the profile bisection (slip-velocity and dwell candidates) uses it
     const Evaluation e = evaluate(P, base.model, base.theta, Span::kFeatures, 0);
     ++d.evaluations;
     if (e.ok) base_feature_sse = e.sse_fit;
@@ -632,7 +636,9 @@ Diagnosis diagnose(const MeasuredDataset& data, const DiagnoseOptions& o) {
           wave_profile = true;
         }
       }
-      std::vector<ProfilePoint> profiles = {{neutral_extension(kind)[0], base_feature_sse, base.theta}};
+      const std::vector<double> neutral_ext = neutral_extension(kind);
+      std::vector<ProfilePoint> profiles = {
+          {neutral_ext[0], base_feature_sse, base.theta, {neutral_ext.begin() + 1, neutral_ext.end()}}};
       for (const auto& es : ext_starts) {
         std::vector<double> th = base.theta;
         const bool neutral = profile && es[0] == (kind == ExtensionKind::kStribeckShape ? 2.0 : 0.0);
@@ -649,7 +655,7 @@ Diagnosis diagnose(const MeasuredDataset& data, const DiagnoseOptions& o) {
           c.res.evals += pr.evals;
           if (pr.ok) {
             th = pr.theta;
-            profiles.push_back({es[0], pr.sse, pr.theta});
+            profiles.push_back({es[0], pr.sse, pr.theta, {es.begin() + 1, es.end()}});
           }
           // Viscous friction and drive damping both add force in proportion to the slip
           // velocity. A base without them absorbs that force by a raised F_C and a v_s far
@@ -682,24 +688,28 @@ Diagnosis diagnose(const MeasuredDataset& data, const DiagnoseOptions& o) {
         th.insert(th.end(), es.begin(), es.end());
         starts.push_back(th);
       }
-      if (slip_force) {
-        // The size grid is coarse (20, 60, 150) and the profile's minimum narrow on long still
-        // stages: refine it by bisection between the best size and its better neighbour.
+      if (slip_force || kind == ExtensionKind::kDwellTime) {
+        // The size grid is coarse (20, 60, 150; dwell A 0.3, 1) and the profile's minimum narrow
+        // on long still stages: refine it by bisection between the best size and its better
+        // neighbour, the other parameters (dwell_tau) held at the best point's.
         for (int step = 0; step < 3; ++step) {
           const double size = next_profile_size(profiles);
           if (!(size > 0)) break;
+          const ProfilePoint best = best_profile(profiles);
           FitModel pm = base.model;
           pm.base.extension.kind = kind;
           set_parameter(pm.base, ext[0].name, size);
-          const FitResult pr = fit(P, pm,
-                                   {best_profile(profiles).theta,
-                                    slip_velocity_origin(base.model, base.theta, size, v_slip)},
-                                   Span::kFeatures, 0, o.max_evals_profile);
+          for (std::size_t j = 1; j < ext.size(); ++j) set_parameter(pm.base, ext[j].name, best.rest[j - 1]);
+          const std::vector<double> origin =
+              slip_force ? slip_velocity_origin(base.model, base.theta, size, v_slip)
+                         : dwell_origin(base.model, base.theta, size, best.rest[0], still_period);
+          const FitResult pr = fit(P, pm, {best.theta, origin}, Span::kFeatures, 0, o.max_evals_profile);
           c.res.evals += pr.evals;
           if (!pr.ok) break;
-          profiles.push_back({size, pr.sse, pr.theta});
+          profiles.push_back({size, pr.sse, pr.theta, best.rest});
           std::vector<double> th = pr.theta;
           th.push_back(size);
+          th.insert(th.end(), best.rest.begin(), best.rest.end());
           starts.push_back(th);
         }
       }
