@@ -636,21 +636,30 @@ Diagnosis diagnose(const MeasuredDataset& data, const DiagnoseOptions& o) {
           wave_profile = true;
         }
       }
+      const bool bisect = slip_force || kind == ExtensionKind::kDwellTime;
+      // The base model with the extension held at es (a profile), and, for the candidates that
+      // bisect their profile, the base optimum shifted for that size (dwell_origin,
+      // slip_velocity_origin).
+      const auto held_model = [&](const std::vector<double>& es) {
+        FitModel pm = base.model;
+        pm.base.extension.kind = kind;
+        for (std::size_t j = 0; j < es.size(); ++j) set_parameter(pm.base, ext[j].name, es[j]);
+        return pm;
+      };
+      const auto shifted_origin = [&](const std::vector<double>& es) {
+        return slip_force ? slip_velocity_origin(base.model, base.theta, es[0], v_slip)
+                          : dwell_origin(base.model, base.theta, es[0], es[1], still_period);
+      };
       const std::vector<double> neutral_ext = neutral_extension(kind);
       std::vector<ProfilePoint> profiles = {
           {neutral_ext[0], base_feature_sse, base.theta, {neutral_ext.begin() + 1, neutral_ext.end()}}};
       for (const auto& es : ext_starts) {
         std::vector<double> th = base.theta;
-        const bool neutral = profile && es[0] == (kind == ExtensionKind::kStribeckShape ? 2.0 : 0.0);
+        const bool neutral = profile && es[0] == neutral_ext[0];
         if ((profile && !neutral) || wave_profile) {
-          FitModel pm = base.model;
-          pm.base.extension.kind = kind;
-          for (std::size_t j = 0; j < es.size(); ++j) set_parameter(pm.base, ext[j].name, es[j]);
+          FitModel pm = held_model(es);
           std::vector<std::vector<double>> origins = {base.theta};
-          if (kind == ExtensionKind::kDwellTime)
-            origins.push_back(dwell_origin(base.model, base.theta, es[0], es[1], still_period));
-          if (slip_force)
-            origins.push_back(slip_velocity_origin(base.model, base.theta, es[0], v_slip));
+          if (bisect) origins.push_back(shifted_origin(es));
           const FitResult pr = fit(P, pm, origins, Span::kFeatures, 0, o.max_evals_profile);
           c.res.evals += pr.evals;
           if (pr.ok) {
@@ -688,28 +697,23 @@ Diagnosis diagnose(const MeasuredDataset& data, const DiagnoseOptions& o) {
         th.insert(th.end(), es.begin(), es.end());
         starts.push_back(th);
       }
-      if (slip_force || kind == ExtensionKind::kDwellTime) {
+      if (bisect) {
         // The size grid is coarse (20, 60, 150; dwell A 0.3, 1) and the profile's minimum narrow
         // on long still stages: refine it by bisection between the best size and its better
         // neighbour, the other parameters (dwell_tau) held at the best point's.
         for (int step = 0; step < 3; ++step) {
           const double size = next_profile_size(profiles);
           if (!(size > 0)) break;
-          const ProfilePoint best = best_profile(profiles);
-          FitModel pm = base.model;
-          pm.base.extension.kind = kind;
-          set_parameter(pm.base, ext[0].name, size);
-          for (std::size_t j = 1; j < ext.size(); ++j) set_parameter(pm.base, ext[j].name, best.rest[j - 1]);
-          const std::vector<double> origin =
-              slip_force ? slip_velocity_origin(base.model, base.theta, size, v_slip)
-                         : dwell_origin(base.model, base.theta, size, best.rest[0], still_period);
-          const FitResult pr = fit(P, pm, {best.theta, origin}, Span::kFeatures, 0, o.max_evals_profile);
+          const ProfilePoint best = best_profile(profiles);  // a copy: profiles grows below
+          std::vector<double> es = {size};
+          es.insert(es.end(), best.rest.begin(), best.rest.end());
+          const FitResult pr = fit(P, held_model(es), {best.theta, shifted_origin(es)},
+                                   Span::kFeatures, 0, o.max_evals_profile);
           c.res.evals += pr.evals;
           if (!pr.ok) break;
           profiles.push_back({size, pr.sse, pr.theta, best.rest});
           std::vector<double> th = pr.theta;
-          th.push_back(size);
-          th.insert(th.end(), best.rest.begin(), best.rest.end());
+          th.insert(th.end(), es.begin(), es.end());
           starts.push_back(th);
         }
       }
