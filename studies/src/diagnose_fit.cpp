@@ -735,4 +735,26 @@ std::vector<double> neutral_extension(ExtensionKind k) {
   return v;
 }
 
+double rms(double sse, std::size_t n) {
+  return n ? std::sqrt(sse / static_cast<double>(n)) : std::numeric_limits<double>::quiet_NaN();
+}
+
+std::vector<ParamEstimate> estimates(const FitModel& m, const std::vector<double>& theta,
+                                     const std::vector<double>& se, std::size_t from,
+                                     std::size_t to) {
+  std::vector<ParamEstimate> out;
+  for (std::size_t i = from; i < to; ++i) {
+    std::string name = m.specs[i].name;
+    double v = theta[i], s = se.empty() ? std::numeric_limits<double>::quiet_NaN() : se[i];
+    if (name == "F_C/F_S") {  // report F_C itself
+      const double F_S = theta[0];
+      name = "F_C";
+      v = theta[i] * F_S;
+      s = std::isfinite(s) ? s * F_S : s;
+    }
+    out.push_back({name, v, s});
+  }
+  return out;
+}
+
 }  // namespace stickslip::studies::diag

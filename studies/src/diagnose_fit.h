@@ -112,6 +112,15 @@ std::vector<double> standard_errors(const Problem& p, const FitModel& m,
                                     const std::vector<double>& theta, double n_over_neff,
                                     int* evals, std::vector<double>* cov_si = nullptr);
 
+/// sqrt(sse / n) [N]; NaN when n = 0.
+double rms(double sse, std::size_t n);
+
+/// The estimates of parameters from .. to-1 of m at theta with standard errors se (empty: NaN),
+/// SI; the ratio F_C/F_S is reported as F_C (value and error times F_S = theta[0]).
+std::vector<ParamEstimate> estimates(const FitModel& m, const std::vector<double>& theta,
+                                     const std::vector<double>& se, std::size_t from,
+                                     std::size_t to);
+
 /// Parameter specs of the base models, with data-driven starting values (F_C0: stage-1 mean,
 /// F_S0: mean + amplitude / 2).
 std::vector<ParamSpec> base_specs(ModelKind m, double F_C0, double F_S0);
