@@ -4,9 +4,11 @@
 
 #include <algorithm>
 #include <cmath>
-#include <limits>
+#include <cstddef>
 #include <stdexcept>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "diagnose_load.h"
 #include "diagnose_sensor.h"
@@ -130,6 +132,17 @@ std::vector<std::vector<double>> extension_starts(ExtensionKind k, const std::ve
     case ExtensionKind::kNone: break;
   }
   return s;
+}
+
+/// Fit RMSE, held-out RMSE, n_eff and AIC of a candidate from its scoring evaluation c.full.
+void score_candidate(const Problem& P, CandFit& c) {
+  c.sse_fit = c.full.sse_fit;
+  c.res.offset = c.full.offset;
+  c.res.rmse_fit = rms(c.full.sse_fit, c.full.n_fit);
+  c.res.rmse_heldout = rms(c.full.sse_held, c.full.n_held);
+  const double rho = lag1(P, c.full);
+  c.n_eff = std::max(static_cast<double>(c.full.n_fit) * (1 - rho) / (1 + rho), 10.0);
+  c.res.aic = c.n_eff * std::log(c.full.sse_fit / c.full.n_fit) + 2.0 * c.theta.size();
 }
 
 /// The starting points of a candidate's phase A (all) and those with v_s held at its nominal
@@ -347,16 +360,6 @@ CandFit fit_candidate(const CandidateInputs& in, ExtensionKind kind) {
     c.res.status = std::string("failed: ") + e.what();
   }
   return c;
-}
-
-void score_candidate(const Problem& P, CandFit& c) {
-  c.sse_fit = c.full.sse_fit;
-  c.res.offset = c.full.offset;
-  c.res.rmse_fit = rms(c.full.sse_fit, c.full.n_fit);
-  c.res.rmse_heldout = rms(c.full.sse_held, c.full.n_held);
-  const double rho = lag1(P, c.full);
-  c.n_eff = std::max(static_cast<double>(c.full.n_fit) * (1 - rho) / (1 + rho), 10.0);
-  c.res.aic = c.n_eff * std::log(c.full.sse_fit / c.full.n_fit) + 2.0 * c.theta.size();
 }
 
 bool nest_in_base(const Problem& P, CandFit& c, const BaseFit& base, std::size_t nb) {

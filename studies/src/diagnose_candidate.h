@@ -72,9 +72,6 @@ bool uses_base_feature_sse(ExtensionKind k);
 /// res.status ("failed: ..."), so the call is safe inside an OpenMP region.
 CandFit fit_candidate(const CandidateInputs& in, ExtensionKind kind);
 
-/// Fit RMSE, held-out RMSE, n_eff and AIC of a candidate from its scoring evaluation c.full.
-void score_candidate(const Problem& P, CandFit& c);
-
 /// A candidate nests its base: at the extension's neutral size it is the base model
 /// (tests/engine/test_extensions.cpp, NeutralSizeReproducesBase). When the candidate's own
 /// optimum scores worse on the fit set than the base point does, the base point (base
