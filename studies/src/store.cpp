@@ -15,7 +15,6 @@
 #include <cstdio>
 #include <cstring>
 #include <ctime>
-#include <fstream>
 #include <limits>
 #include <random>
 #include <utility>
@@ -414,6 +413,40 @@ DbIdentity read_identity(const Connection& conn) {
   fail(path, buf);
 }
 
+/// The first 100 bytes of path (fewer when the file is shorter), read through SQLite's default
+/// VFS and never through a descriptor of our own. Closing ANY descriptor of a database file drops
+/// every POSIX lock the process holds on it (SQLite, "How To Corrupt An SQLite Database File",
+/// section 2.2): after a plain std::ifstream read here, the next connection of another process
+/// to close believed it was the last one, deleted the live -wal and -shm, and this process' later
+/// commits went to an unlinked WAL. The VFS's xClose keeps the descriptor open until the
+/// process' other connections to the file release their locks.
+std::string read_header_via_vfs(const fs::path& path) {
+  sqlite3_vfs* vfs = sqlite3_vfs_find(nullptr);
+  if (vfs == nullptr) fail(path, "reading the file header: SQLite has no default VFS");
+  // A VFS file name is followed by its (here empty) URI parameters: end it with extra NULs.
+  std::string name = path.string();
+  name.append(4, '\0');
+  std::unique_ptr<sqlite3_file, decltype(&sqlite3_free)> file(
+      static_cast<sqlite3_file*>(sqlite3_malloc(vfs->szOsFile)), &sqlite3_free);
+  if (!file) fail(path, "reading the file header: out of memory");
+  std::memset(file.get(), 0, static_cast<std::size_t>(vfs->szOsFile));
+  int out_flags = 0;
+  int rc = vfs->xOpen(vfs, name.c_str(), file.get(), SQLITE_OPEN_READONLY | SQLITE_OPEN_MAIN_DB,
+                      &out_flags);
+  if (rc != SQLITE_OK) {
+    if (file->pMethods != nullptr) file->pMethods->xClose(file.get());
+    return {};  // unreadable: the real open reports it
+  }
+  std::array<char, 100> header{};
+  sqlite3_int64 size = 0;
+  rc = file->pMethods->xFileSize(file.get(), &size);
+  const int n = rc == SQLITE_OK ? static_cast<int>(std::min<sqlite3_int64>(size, 100)) : 0;
+  if (n > 0) rc = file->pMethods->xRead(file.get(), header.data(), n, 0);
+  file->pMethods->xClose(file.get());
+  if (rc != SQLITE_OK) return {};
+  return std::string(header.data(), static_cast<std::size_t>(n));
+}
+
 /// Rejects an existing non-empty file that is not an SQLite database, or whose header carries
 /// another application_id, before SQLite opens it (so that SQLite never writes to it, e.g. by
 /// rolling back a hot journal). Header layout: https://www.sqlite.org/fileformat.html (the magic
@@ -422,17 +455,16 @@ void require_sqlite_header(const fs::path& path) {
   std::error_code ec;
   const auto size = fs::file_size(path, ec);
   if (ec || size == 0) return;  // missing, a directory or empty: SQLite decides
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return;
-  std::array<unsigned char, 100> header{};
-  in.read(reinterpret_cast<char*>(header.data()), header.size());
+  const std::string header = read_header_via_vfs(path);
+  if (header.empty()) return;
   constexpr char kMagic[] = "SQLite format 3";  // 15 chars + the terminating NUL = 16 bytes
-  if (in.gcount() < 16 || std::memcmp(header.data(), kMagic, 16) != 0)
+  if (header.size() < 16 || std::memcmp(header.data(), kMagic, 16) != 0)
     fail(path, "not a stickslip database: the file is not an SQLite database (no SQLite header); "
                "left unchanged");
-  if (in.gcount() < 100) return;
+  if (header.size() < 100) return;
   std::uint32_t app_id = 0;
-  for (int k = 68; k < 72; ++k) app_id = (app_id << 8) | header[static_cast<std::size_t>(k)];
+  for (int k = 68; k < 72; ++k)
+    app_id = (app_id << 8) | static_cast<unsigned char>(header[static_cast<std::size_t>(k)]);
   if (app_id != 0 && app_id != static_cast<std::uint32_t>(kStoreApplicationId))
     fail_foreign(path, {static_cast<std::int32_t>(app_id), 0});
 }
