@@ -14,7 +14,7 @@
 
 namespace {
 
-using namespace stickslip;
+using namespace stickslip::engine;
 
 SimConfig lane_cfg(ModelKind m, int i) {
   SimConfig c = SimConfig::seed(m, 4e-3);

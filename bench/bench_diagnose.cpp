@@ -7,12 +7,12 @@
 #include <iostream>
 #include <string>
 
-#include "stickslip/studies/diagnose.h"
-#include "stickslip/studies/measured.h"
-#include "stickslip/studies/synth.h"
+#include "stickslip/diagnosis/diagnose.h"
+#include "stickslip/measured/measured.h"
+#include "stickslip/measured/synth.h"
 
 using namespace stickslip;
-using namespace stickslip::studies;
+using namespace stickslip::diagnosis;
 
 int main(int argc, char** argv) {
   // --via-csv DIR: write the dataset as manifest + CSV files (9 significant digits) and diagnose
@@ -22,12 +22,12 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "usage: bench_diagnose [--via-csv DIR]\n");
     return 2;
   }
-  SynthOptions o;
-  o.model = SimConfig::seed(ModelKind::kLuGre, 0.0);
-  o.model.extension.kind = ExtensionKind::kViscous;
+  measured::SynthOptions o;
+  o.model = engine::SimConfig::seed(engine::ModelKind::kLuGre, 0.0);
+  o.model.extension.kind = engine::ExtensionKind::kViscous;
   o.model.extension.sigma2 = 30.0;
   for (double va : {0.0, 1.1e-3, 4e-3}) {
-    MeasuredConditions c;
+    measured::MeasuredConditions c;
     c.va = va;
     o.runs.push_back(c);
   }
@@ -35,14 +35,14 @@ int main(int argc, char** argv) {
   o.rate = 2000;
   o.rtol = 1e-8;
   const auto t0 = std::chrono::steady_clock::now();
-  MeasuredDataset data = synthesize(o);
-  if (!via_csv.empty()) data = load_measured(write_dataset(data, via_csv));
+  measured::MeasuredDataset data = measured::synthesize(o);
+  if (!via_csv.empty()) data = measured::load_measured(measured::write_dataset(data, via_csv));
   const double t_synth = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  const Diagnosis d = diagnose(data, DiagnoseOptions{});
+  const diagnosis::Diagnosis d = diagnosis::diagnose(data, diagnosis::DiagnoseOptions{});
   std::printf("synth: %.1f s; diagnose (3 x 20 s at 2 kHz, 4 models, 8 candidates): %.1f s wall, "
               "%d model evaluations (target <= 180 s)\n",
               t_synth, d.seconds, d.evaluations);
-  std::cout << summary_text(d);
+  std::cout << diagnosis::summary_text(d);
   // Where the evaluations went (the candidates run two at a time, the base models too).
   std::printf("evaluations:");
   for (const auto& c : d.calibrations) std::printf(" %s %d,", to_string(c.model), c.evals);

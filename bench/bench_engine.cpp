@@ -11,10 +11,10 @@
 
 namespace {
 
-using stickslip::IntegratorKind;
-using stickslip::ModelKind;
-using stickslip::RunStatus;
-using stickslip::SimConfig;
+using stickslip::engine::IntegratorKind;
+using stickslip::engine::ModelKind;
+using stickslip::engine::RunStatus;
+using stickslip::engine::SimConfig;
 
 ModelKind model_of(int64_t i) { return static_cast<ModelKind>(i); }
 
@@ -22,7 +22,7 @@ ModelKind model_of(int64_t i) { return static_cast<ModelKind>(i); }
 double run_timed(benchmark::State& state, const SimConfig& cfg) {
   double total_steps = 0;
   for (auto _ : state) {
-    auto r = stickslip::simulate(cfg);
+    auto r = stickslip::engine::simulate(cfg);
     if (r.status != RunStatus::kOk) {
       state.SkipWithError(r.reason.c_str());
       break;
@@ -30,7 +30,7 @@ double run_timed(benchmark::State& state, const SimConfig& cfg) {
     total_steps += static_cast<double>(r.steps);
     benchmark::DoNotOptimize(r.x_end);
   }
-  state.SetLabel(stickslip::to_string(cfg.model));
+  state.SetLabel(stickslip::engine::to_string(cfg.model));
   return total_steps;
 }
 

@@ -17,29 +17,29 @@
 #include <vector>
 
 #include "stickslip/engine/simulate.h"
-#include "stickslip/studies/diagnose_suite.h"
+#include "stickslip/diagnosis/diagnose_suite.h"
 
 using namespace stickslip;
-using namespace stickslip::studies;
+using namespace stickslip::diagnosis;
 
 int main(int argc, char** argv) {
-  SuiteDatasets family = SuiteDatasets::kCi;
+  diagnosis::SuiteDatasets family = diagnosis::SuiteDatasets::kCi;
   bool verbose = false;
   int seeds = 3, first = 0;  // seeds 1000 + first ... 1000 + first + seeds - 1
   std::vector<std::string> only;
   for (int i = 1; i < argc; ++i) {
-    if (!std::strcmp(argv[i], "--full")) family = SuiteDatasets::kFull;
-    else if (!std::strcmp(argv[i], "--seed-conditions")) family = SuiteDatasets::kSeed;
+    if (!std::strcmp(argv[i], "--full")) family = diagnosis::SuiteDatasets::kFull;
+    else if (!std::strcmp(argv[i], "--seed-conditions")) family = diagnosis::SuiteDatasets::kSeed;
     else if (!std::strcmp(argv[i], "--verbose")) verbose = true;
     else if (!std::strcmp(argv[i], "--time-sim")) {  // cost of one fitting simulation per v_a
       for (double rtol : {1e-5, 1e-4, 1e-3})
         for (double va : {0.0, 1.5e-3, 5e-3}) {
-          SimConfig c = SimConfig::seed(ModelKind::kLuGre, va);
-          c.stages = {Stage{3.5, 0.0, 1500}, Stage{2.5, va, 1500}};
+          engine::SimConfig c = engine::SimConfig::seed(engine::ModelKind::kLuGre, va);
+          c.stages = {engine::Stage{3.5, 0.0, 1500}, engine::Stage{2.5, va, 1500}};
           c.integrator.rtol = c.integrator.atol = rtol;
           c.trace.rate = 4000;
           const auto t0 = std::chrono::steady_clock::now();
-          const SimResult r = simulate(c);
+          const engine::SimResult r = engine::simulate(c);
           std::printf("rtol %g va %g: %.3f s, %zu trace samples\n", rtol, va,
                       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(),
                       r.trace.size());
@@ -54,9 +54,9 @@ int main(int argc, char** argv) {
       return 2;
     }
   }
-  const auto cases = hidden_effect_cases();
+  const auto cases = diagnosis::hidden_effect_cases();
   std::vector<std::string> causes = {"none"};
-  for (ExtensionKind k : extension_catalogue()) causes.push_back(to_string(k));
+  for (engine::ExtensionKind k : engine::extension_catalogue()) causes.push_back(to_string(k));
   std::map<std::string, std::map<std::string, int>> table;
   std::vector<std::string> rows;
   int passed = 0, total = 0;
@@ -68,9 +68,9 @@ int main(int argc, char** argv) {
     if (!only.empty() && std::find(only.begin(), only.end(), c.name) == only.end()) continue;
     rows.push_back(c.name);
     for (int s = first; s < first + seeds; ++s) {
-      const Diagnosis d = diagnose(synthesize(hidden_case_dataset(c, 1000 + s, family)),
-                                   hidden_case_options(family));
-      const HiddenVerdict v = judge(c, d);
+      const diagnosis::Diagnosis d = diagnosis::diagnose(measured::synthesize(diagnosis::hidden_case_dataset(c, 1000 + s, family)),
+                                   diagnosis::hidden_case_options(family));
+      const diagnosis::HiddenVerdict v = diagnosis::judge(c, d);
       ++table[c.name][d.cause];
       ++total;
       passed += v.ok();
@@ -79,7 +79,7 @@ int main(int argc, char** argv) {
                   d.cause.c_str(), d.gain, d.gain_heldout_runs, v.truth, v.recovered, d.seconds,
                   v.ok() ? "yes" : "NO");
       if (verbose) {
-        std::printf("%s(%d model evaluations)\n", summary_text(d).c_str(), d.evaluations);
+        std::printf("%s(%d model evaluations)\n", diagnosis::summary_text(d).c_str(), d.evaluations);
         // Refitted base parameters, fit RMSE and LR of every candidate: where a fit went.
         for (const auto& cand : d.candidates) {
           std::printf("  %-24s fit %.4f held %.4f lr %.1f p %.2g%s |", to_string(cand.kind),

@@ -27,7 +27,7 @@
 namespace {
 
 namespace fs = std::filesystem;
-using namespace stickslip::studies;
+using namespace stickslip;
 
 std::string slurp(const fs::path& p) {
   std::ifstream in(p);
@@ -36,8 +36,8 @@ std::string slurp(const fs::path& p) {
   return s.str();
 }
 
-StudySpec parse_or_die(const std::string& text) {
-  ParseResult r = parse_study(text);
+studies::StudySpec parse_or_die(const std::string& text) {
+  studies::ParseResult r = studies::parse_study(text);
   if (!r.ok()) {
     std::fprintf(stderr, "spec does not parse: %s: %s\n", r.errors[0].pointer.c_str(),
                  r.errors[0].message.c_str());
@@ -59,24 +59,24 @@ double peak_rss_mb() {
   return static_cast<double>(u.ru_maxrss) / 1024.0;
 }
 
-RunSummary run_fresh(const fs::path& db, const StudySpec& spec, RunnerOptions opt) {
+studies::RunSummary run_fresh(const fs::path& db, const studies::StudySpec& spec, studies::RunnerOptions opt) {
   fs::remove(db);
   fs::remove(db.string() + "-wal");
   fs::remove(db.string() + "-shm");
-  Store store = Store::open(db);
-  const StudyRecord st = create_or_find_study(store, spec);
-  return run_study(db, st.id, spec, opt);
+  store::Store store = store::Store::open(db);
+  const store::StudyRecord st = studies::create_or_find_study(store, spec);
+  return studies::run_study(db, st.id, spec, opt);
 }
 
 void paper_map(const fs::path& tmp) {
-  const StudySpec spec = parse_or_die(slurp(fs::path(STICKSLIP_SOURCE_DIR) / "studies/paper-map.json"));
+  const studies::StudySpec spec = parse_or_die(slurp(fs::path(STICKSLIP_SOURCE_DIR) / "studies/paper-map.json"));
   std::printf("== paper map: %zu runs (4 models x 51 va_over_vd, 10 s + 10 s, adaptive)\n",
               spec.run_count());
-  RunnerOptions one, two;
+  studies::RunnerOptions one, two;
   one.threads = 1;
   two.threads = 2;
-  const RunSummary s2 = run_fresh(tmp / "map2.db", spec, two);
-  const RunSummary s1 = run_fresh(tmp / "map1.db", spec, one);
+  const studies::RunSummary s2 = run_fresh(tmp / "map2.db", spec, two);
+  const studies::RunSummary s1 = run_fresh(tmp / "map1.db", spec, one);
   for (const auto* s : {&s1, &s2})
     std::printf("  threads %d: wall %.2f s, compute %.2f CPU-s, store %.4f s (%.3f %% of wall), "
                 "failed %lld\n",
@@ -94,17 +94,17 @@ void memory(const fs::path& tmp) {
       "design": {"type": "random", "n": )" + std::to_string(n) + R"(, "seed": 3,
                  "ranges": [{"name": "k_d", "min": 9000, "max": 14000},
                             {"name": "va_over_vd", "min": 0, "max": 5}]}})";
-    const StudySpec spec = parse_or_die(text);
+    const studies::StudySpec spec = parse_or_die(text);
     double max_rss = 0, rss_at_10pc = 0;
-    RunnerOptions opt;
+    studies::RunnerOptions opt;
     opt.threads = 2;
-    opt.on_progress = [&](const Progress& p) {
+    opt.on_progress = [&](const studies::Progress& p) {
       const double r = rss_mb();
       max_rss = std::max(max_rss, r);
       if (rss_at_10pc == 0 && p.done >= p.total / 10) rss_at_10pc = r;
     };
     const double before = rss_mb();
-    const RunSummary s = run_fresh(tmp / "mem.db", spec, opt);
+    const studies::RunSummary s = run_fresh(tmp / "mem.db", spec, opt);
     std::printf("  %5d runs: wall %.2f s (compute %.2f CPU-s), RSS before %.1f MB, at 10 %% %.1f MB, max sampled %.1f "
                 "MB, process peak %.1f MB, store %.3f %% of wall\n",
                 n, s.wall_s, s.compute_s, before, rss_at_10pc, max_rss, peak_rss_mb(),
@@ -115,18 +115,18 @@ void memory(const fs::path& tmp) {
 void convergence(const fs::path& tmp) {
   nlohmann::json doc = nlohmann::json::parse(slurp(fs::path(STICKSLIP_SOURCE_DIR) / "studies/paper-map.json"));
   doc["design"]["axes"][1] = {{"name", "va_over_vd"}, {"linspace", {0, 5, 11}}};
-  const StudySpec coarse = parse_or_die(doc.dump());
+  const studies::StudySpec coarse = parse_or_die(doc.dump());
   doc["integrator"] = {{"kind", "adaptive"}, {"rtol", 1e-10}, {"atol", 1e-10}};
   doc["name"] = "paper-map-tight";
-  const StudySpec tight = parse_or_die(doc.dump());
+  const studies::StudySpec tight = parse_or_die(doc.dump());
   std::printf("== convergence of the paper map's metrics: its tolerance vs rtol = atol = "
               "1e-10, %zu runs\n", coarse.run_count());
-  RunnerOptions opt;
+  studies::RunnerOptions opt;
   opt.threads = 2;
   run_fresh(tmp / "c1.db", coarse, opt);
   run_fresh(tmp / "c2.db", tight, opt);
-  Store a = Store::open(tmp / "c1.db", Store::Mode::kReadOnly);
-  Store b = Store::open(tmp / "c2.db", Store::Mode::kReadOnly);
+  store::Store a = store::Store::open(tmp / "c1.db", store::Store::Mode::kReadOnly);
+  store::Store b = store::Store::open(tmp / "c2.db", store::Store::Mode::kReadOnly);
   const auto ra = a.get_runs(a.list_studies(1)[0].id, -1, 10000);
   const auto rb = b.get_runs(b.list_studies(1)[0].id, -1, 10000);
   double worst_amp = 0, worst_mean = 0;

@@ -34,7 +34,7 @@
 
 namespace {
 
-using namespace stickslip;
+using namespace stickslip::engine;
 
 constexpr double kTraceRate = 2000.0;
 

@@ -5,7 +5,7 @@
 
 #include "diagnose_remote.h"
 #include "stickslip/client/cli.h"
-#include "stickslip/studies/diagnose.h"
+#include "stickslip/diagnosis/diagnose.h"
 
 namespace stickslip::client {
 namespace {
@@ -13,27 +13,27 @@ namespace {
 struct DiagnoseArgs {
   std::string manifest, out;
   std::vector<std::string> models, candidates;
-  studies::DiagnoseOptions opt;
+  diagnosis::DiagnoseOptions opt;
   // --server
   std::string server, idempotency_key;
   bool wait = false, json_output = false;
 };
 
 int run_diagnose(DiagnoseArgs& a) {
-  studies::MeasuredDataset data;
+  measured::MeasuredDataset data;
   try {
     if (a.out.empty()) throw std::invalid_argument("--out DIR is required (or --server URL)");
     if (!a.models.empty()) {
       a.opt.models.clear();
-      for (const auto& m : a.models) a.opt.models.push_back(model_from_string(m));
+      for (const auto& m : a.models) a.opt.models.push_back(engine::model_from_string(m));
     }
     if (!a.candidates.empty()) {
       a.opt.candidates.clear();
-      for (const auto& c : a.candidates) a.opt.candidates.push_back(extension_from_string(c));
+      for (const auto& c : a.candidates) a.opt.candidates.push_back(engine::extension_from_string(c));
     }
     if (std::string why; !a.opt.IsValid(&why)) throw std::invalid_argument(why);
-    data = studies::load_measured(a.manifest);
-  } catch (const studies::MeasuredError& e) {
+    data = measured::load_measured(a.manifest);
+  } catch (const measured::MeasuredError& e) {
     std::cerr << "stickslip diagnose: " << e.what() << "\n";
     return kBadInput;
   } catch (const std::invalid_argument& e) {
@@ -41,9 +41,9 @@ int run_diagnose(DiagnoseArgs& a) {
     return kBadInput;
   }
   try {
-    const studies::Diagnosis d = studies::diagnose(data, a.opt);
-    const auto files = studies::write_report(d, a.out);
-    std::cout << studies::summary_text(d);
+    const diagnosis::Diagnosis d = diagnosis::diagnose(data, a.opt);
+    const auto files = diagnosis::write_report(d, a.out);
+    std::cout << diagnosis::summary_text(d);
     for (const auto& f : files) std::cout << "wrote " << f << "\n";
   } catch (const std::exception& e) {
     std::cerr << "stickslip diagnose: " << e.what() << "\n";

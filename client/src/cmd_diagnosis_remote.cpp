@@ -14,8 +14,8 @@
 #include "diagnose_remote.h"
 #include "stickslip/client/cli.h"
 #include "stickslip/client/remote.h"
-#include "stickslip/studies/json_schema.h"
-#include "stickslip/studies/measured.h"
+#include "stickslip/common/json_schema.h"
+#include "stickslip/measured/measured.h"
 
 namespace stickslip::client {
 
@@ -46,7 +46,7 @@ int guarded(const std::function<int()>& body) {
   } catch (const UnreachableError& e) {
     std::cerr << "stickslip: server unreachable: " << e.what() << "\n";
     return kUnreachable;
-  } catch (const studies::MeasuredError& e) {
+  } catch (const measured::MeasuredError& e) {
     std::cerr << "stickslip diagnose: " << e.what() << "\n";
     return kBadInput;
   } catch (const std::invalid_argument& e) {
@@ -111,9 +111,9 @@ int wait_and_report(Remote& remote, const std::string& id, bool json_output,
 
 json diagnosis_request_from_files(const std::string& manifest, const json& options) {
   const std::string text = slurp(manifest, "manifest");
-  std::vector<studies::SpecError> errors;
-  auto doc = studies::parse_json(text, &errors);
-  if (!doc) throw std::invalid_argument(manifest + ": " + studies::to_string(errors));
+  std::vector<common::SpecError> errors;
+  auto doc = common::parse_json(text, &errors);
+  if (!doc) throw std::invalid_argument(manifest + ": " + common::to_string(errors));
   json files = json::object();
   const fs::path dir = fs::absolute(manifest).parent_path();
   if (doc->is_object() && (*doc)["runs"].is_array()) {
@@ -136,7 +136,7 @@ json diagnosis_request_from_files(const std::string& manifest, const json& optio
 int remote_diagnose(const RemoteDiagnoseArgs& a) {
   return guarded([&]() -> int {
     // The local checks first: their messages name the files on this machine.
-    studies::load_measured(a.manifest);
+    measured::load_measured(a.manifest);
     const json request = diagnosis_request_from_files(a.manifest, a.options);
     Remote remote = make_remote(a.server);
     const json d = remote.submit_diagnosis(request.dump(), a.idempotency_key);

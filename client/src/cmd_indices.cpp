@@ -16,8 +16,8 @@ struct IndicesArgs {
 };
 
 int print_indices(const IndicesArgs& a) {
-  studies::Store store = open_existing(a.db);
-  const studies::StudyRecord s = resolve_study(store, a.study);
+  store::Store store = open_existing(a.db);
+  const store::StudyRecord s = resolve_study(store, a.study);
   const studies::StudyIndices r = studies::compute_indices(store, s.id, a.outputs, a.options);
   write_output(a.out, a.json_out ? studies::indices_to_json(r).dump(2) + "\n"
                                  : studies::indices_to_table(r));

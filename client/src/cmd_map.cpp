@@ -13,8 +13,8 @@ struct MapArgs {
 };
 
 int print_map(const MapArgs& a, bool rmse) {
-  studies::Store store = open_existing(a.db);
-  const studies::StudyRecord s = resolve_study(store, a.study);
+  store::Store store = open_existing(a.db);
+  const store::StudyRecord s = resolve_study(store, a.study);
   const studies::StudyMap map = studies::build_map(store, s.id);
   if (rmse) {
     bool any = false;

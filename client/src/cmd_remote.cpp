@@ -14,6 +14,7 @@
 #include "stickslip/client/cli.h"
 #include "stickslip/client/remote.h"
 #include "local_store.h"
+#include "stickslip/studies/map.h"
 
 namespace stickslip::client {
 
@@ -298,7 +299,7 @@ int remote_map(const std::string& server, const std::string& id, const std::stri
       write_output(out, m.dump(2) + "\n");
       return kOk;
     }
-    write_output(out, studies::map_to_table(map_from_json(m), view == "mean_force"
+    write_output(out, studies::map_to_table(studies::map_from_json(m), view == "mean_force"
                                                                   ? studies::MapView::kMeanForce
                                                                   : studies::MapView::kAmplitude));
     return kOk;

@@ -7,7 +7,7 @@
 
 #include "local_store.h"
 #include "stickslip/client/cli.h"
-#include "stickslip/studies/report.h"
+#include "stickslip/reports/report.h"
 
 namespace stickslip::client {
 namespace {
@@ -33,7 +33,7 @@ int make_report(const ReportArgs& a) {
   text << in.rdbuf();
   fs::path dir = fs::path(a.config).parent_path();
   if (dir.empty()) dir = ".";
-  const studies::ReportConfigResult parsed = studies::parse_report_config(text.str(), dir);
+  const reports::ReportConfigResult parsed = reports::parse_report_config(text.str(), dir);
   if (!parsed.ok()) {
     std::cerr << "stickslip report: " << a.config << ": " << parsed.errors.size() << " error(s):\n";
     for (const auto& e : parsed.errors)
@@ -41,7 +41,7 @@ int make_report(const ReportArgs& a) {
                 << "\n";
     return kBadInput;
   }
-  studies::ReportOptions opt;
+  reports::ReportOptions opt;
   opt.db = a.db;
   opt.out_dir = a.out;
   opt.date = a.date;
@@ -68,7 +68,7 @@ int make_report(const ReportArgs& a) {
   g_report_interrupted = false;
   std::signal(SIGINT, on_report_interrupt);
   std::signal(SIGTERM, on_report_interrupt);
-  const studies::ReportResult r = studies::build_report(*parsed.config, opt);
+  const reports::ReportResult r = reports::build_report(*parsed.config, opt);
   std::signal(SIGINT, SIG_DFL);
   std::signal(SIGTERM, SIG_DFL);
   bar->finish();

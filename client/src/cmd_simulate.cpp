@@ -55,19 +55,19 @@ constexpr Flag kFlags[] = {
 };
 
 int run_simulate(SimulateArgs& a) {
-  SimConfig cfg;
+  engine::SimConfig cfg;
   try {
-    cfg = SimConfig::seed(model_from_string(a.model), 0.0);
-    cfg.integrator.kind = integrator_from_string(a.integrator);
+    cfg = engine::SimConfig::seed(engine::model_from_string(a.model), 0.0);
+    cfg.integrator.kind = engine::integrator_from_string(a.integrator);
     // Order matters for derived settings: t_on before duration, then everything else.
     for (const char* first : {"t_on", "duration"})
-      if (auto& v = a.values[first]) set_parameter(cfg, first, *v);
+      if (auto& v = a.values[first]) engine::set_parameter(cfg, first, *v);
     for (auto& [name, v] : a.values)
-      if (v && name != "t_on" && name != "duration") set_parameter(cfg, name, *v);
+      if (v && name != "t_on" && name != "duration") engine::set_parameter(cfg, name, *v);
     apply_effect_options(a.effect, a.effect_params, cfg);
     if (!a.trace_file.empty()) {
       if (!(std::isfinite(a.trace_rate) && a.trace_rate > 0))
-        throw InvalidParameter("trace-rate", a.trace_rate, "must be a finite number > 0");
+        throw engine::InvalidParameter("trace-rate", a.trace_rate, "must be a finite number > 0");
       cfg.trace.rate = a.trace_rate;
     }
     cfg.Validate();
@@ -75,17 +75,17 @@ int run_simulate(SimulateArgs& a) {
     std::cerr << "stickslip simulate: " << e.what() << "\n";
     return kBadInput;
   }
-  const SimResult r = simulate(cfg);
+  const engine::SimResult r = engine::simulate(cfg);
   std::cout << summary_json(cfg, r) << "\n";
   if (!a.trace_file.empty()) {
     try {
-      write_trace_csv(r.trace, a.trace_file);
+      engine::write_trace_csv(r.trace, a.trace_file);
     } catch (const std::exception& e) {
       std::cerr << "stickslip simulate: " << e.what() << "\n";
       return kFailure;
     }
   }
-  return r.status == RunStatus::kOk ? kOk : kFailure;
+  return r.status == engine::RunStatus::kOk ? kOk : kFailure;
 }
 
 }  // namespace

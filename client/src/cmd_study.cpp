@@ -52,11 +52,11 @@ int study_run(const RunArgs& a) {
   const studies::StudySpec& spec = *parsed.spec;
 
   // 2. The store: a path that cannot be created or a foreign file is bad input, left untouched.
-  studies::StudyRecord study;
+  store::StudyRecord study;
   try {
-    studies::Store store = studies::Store::open(a.db);
+    store::Store store = store::Store::open(a.db);
     study = studies::create_or_find_study(store, spec);
-  } catch (const studies::StoreError& e) {
+  } catch (const store::StoreError& e) {
     std::cerr << "stickslip study run: " << e.what() << "\n";
     return kBadInput;
   }
@@ -117,7 +117,7 @@ int study_run(const RunArgs& a) {
 }
 
 int study_list(const std::string& db, bool as_json) {
-  studies::Store store = open_existing(db);
+  store::Store store = open_existing(db);
   json all = json::array();
   if (!as_json)
     std::printf("%-24s %-24s %-10s %13s %7s  %s\n", "id", "name", "state", "done/total",
@@ -133,7 +133,7 @@ int study_list(const std::string& db, bool as_json) {
       } else {
         const std::string progress = std::to_string(c.done) + "/" + std::to_string(c.total);
         std::printf("%-24s %-24s %-10s %13s %7lld  %s\n", s.id.c_str(), s.name.c_str(),
-                    studies::to_string(s.state), progress.c_str(),
+                    store::to_string(s.state), progress.c_str(),
                     static_cast<long long>(c.failed), s.created_at.c_str());
       }
     }
@@ -144,8 +144,8 @@ int study_list(const std::string& db, bool as_json) {
 }
 
 int study_show(const std::string& db, const std::string& id, bool with_spec) {
-  studies::Store store = open_existing(db);
-  const studies::StudyRecord s = resolve_study(store, id);
+  store::Store store = open_existing(db);
+  const store::StudyRecord s = resolve_study(store, id);
   json out = studies::study_to_json(s, store.count_runs(s.id));
   if (with_spec) out["spec"] = json::parse(s.spec_json);
   std::cout << out.dump(2) << "\n";
@@ -154,8 +154,8 @@ int study_show(const std::string& db, const std::string& id, bool with_spec) {
 
 int study_export(const std::string& db, const std::string& id, const std::string& format,
                  const std::string& out_path) {
-  studies::Store store = open_existing(db);
-  const studies::StudyRecord s = resolve_study(store, id);
+  store::Store store = open_existing(db);
+  const store::StudyRecord s = resolve_study(store, id);
   const std::size_t stages = json::parse(s.spec_json).value("stages", json::array()).size();
   std::ostringstream o;
   std::vector<std::string> names;

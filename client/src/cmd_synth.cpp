@@ -4,7 +4,7 @@
 #include <iostream>
 
 #include "stickslip/client/cli.h"
-#include "stickslip/studies/synth.h"
+#include "stickslip/measured/synth.h"
 
 namespace stickslip::client {
 namespace {
@@ -15,8 +15,8 @@ struct SynthArgs {
   std::string effect = "none";
   std::vector<std::string> effect_params;
   std::vector<double> va = {0.0, 1.1e-3, 4e-3};
-  studies::MeasuredConditions cond;
-  studies::SynthOptions opt;
+  measured::MeasuredConditions cond;
+  measured::SynthOptions opt;
   std::string out;
 };
 
@@ -24,39 +24,39 @@ double parse_number(const std::string& field, const std::string& text) {
   char* end = nullptr;
   const double v = std::strtod(text.c_str(), &end);
   if (text.empty() || end != text.c_str() + text.size())
-    throw InvalidParameter(field, text, "not a number");
+    throw engine::InvalidParameter(field, text, "not a number");
   return v;
 }
 
 int run_synth(SynthArgs& a) {
-  studies::SynthOptions o = a.opt;
+  measured::SynthOptions o = a.opt;
   try {
-    o.model = SimConfig::seed(model_from_string(a.model), 0.0);
+    o.model = engine::SimConfig::seed(engine::model_from_string(a.model), 0.0);
     for (const std::string& p : a.params) {
       const auto eq = p.find('=');
       if (eq == std::string::npos || eq == 0)
-        throw InvalidParameter("param", p, "expected NAME=VALUE, e.g. F_S=10.5");
-      set_parameter(o.model, p.substr(0, eq), parse_number(p.substr(0, eq), p.substr(eq + 1)));
+        throw engine::InvalidParameter("param", p, "expected NAME=VALUE, e.g. F_S=10.5");
+      engine::set_parameter(o.model, p.substr(0, eq), parse_number(p.substr(0, eq), p.substr(eq + 1)));
     }
     apply_effect_options(a.effect, a.effect_params, o.model);
     o.runs.clear();
     for (double va : a.va) {
-      studies::MeasuredConditions c = a.cond;
+      measured::MeasuredConditions c = a.cond;
       c.va = va;
       o.runs.push_back(c);
     }
     if (std::string why; !o.IsValid(&why)) throw std::invalid_argument(why);
     std::vector<std::string> errors;
-    SimConfig probe = o.model;
-    studies::apply_conditions(o.runs[0], probe);
+    engine::SimConfig probe = o.model;
+    measured::apply_conditions(o.runs[0], probe);
     if (!probe.IsValid(&errors)) throw std::invalid_argument(errors.front());
   } catch (const std::invalid_argument& e) {
     std::cerr << "stickslip synth: " << e.what() << "\n";
     return kBadInput;
   }
   try {
-    const auto data = studies::synthesize(o);
-    const auto manifest = studies::write_dataset(data, a.out);
+    const auto data = measured::synthesize(o);
+    const auto manifest = measured::write_dataset(data, a.out);
     std::cout << manifest.string() << "\n";
   } catch (const std::exception& e) {
     std::cerr << "stickslip synth: " << e.what() << "\n";

@@ -17,28 +17,28 @@ struct TableArgs {
 };
 
 int run_table(const TableArgs& a) {
-  IntegratorKind kind;
+  engine::IntegratorKind kind;
   try {
-    kind = integrator_from_string(a.integrator);
-    SimConfig probe;
-    set_parameter(probe, "dt", a.dt);
+    kind = engine::integrator_from_string(a.integrator);
+    engine::SimConfig probe;
+    engine::set_parameter(probe, "dt", a.dt);
   } catch (const std::invalid_argument& e) {
     std::cerr << "stickslip table: " << e.what() << "\n";
     return kBadInput;
   }
-  const ModelKind models[] = {ModelKind::kDahl, ModelKind::kKarnopp, ModelKind::kResetIntegrator,
-                              ModelKind::kLuGre};
+  const engine::ModelKind models[] = {engine::ModelKind::kDahl, engine::ModelKind::kKarnopp, engine::ModelKind::kResetIntegrator,
+                              engine::ModelKind::kLuGre};
   const double vas[] = {0.0, 0.2e-3, 1.1e-3, 4.0e-3};
   constexpr int kRuns = 16;
-  std::vector<SimConfig> cfgs(kRuns);
-  std::vector<SimResult> results(kRuns);
+  std::vector<engine::SimConfig> cfgs(kRuns);
+  std::vector<engine::SimResult> results(kRuns);
   for (int i = 0; i < kRuns; ++i) {
-    cfgs[i] = SimConfig::seed(models[i / 4], vas[i % 4]);
+    cfgs[i] = engine::SimConfig::seed(models[i / 4], vas[i % 4]);
     cfgs[i].integrator.kind = kind;
     cfgs[i].integrator.dt = a.dt;
   }
 #pragma omp parallel for schedule(dynamic, 1)
-  for (int i = 0; i < kRuns; ++i) results[i] = simulate(cfgs[i]);  // simulate() never throws
+  for (int i = 0; i < kRuns; ++i) results[i] = engine::simulate(cfgs[i]);  // simulate() never throws
 
   std::printf("Seed two-stage runs (10 s still base, then 10 s at v_a, f = 1500 Hz), integrator "
               "%s. Metrics over the last 60%% of each stage.\n",
@@ -46,7 +46,7 @@ int run_table(const TableArgs& a) {
   std::printf("%-17s %7s | %-31s | %-31s | %s\n", "model", "v_a", "stage 1: amp [N] raw  mean",
               "stage 2: amp [N] raw  mean", "slips 1/2  status");
   for (int i = 0; i < kRuns; ++i) {
-    const SimResult& r = results[i];
+    const engine::SimResult& r = results[i];
     std::printf("%-17s %4.1f mm/s", to_string(cfgs[i].model), vas[i % 4] * 1e3);
     for (std::size_t s = 0; s < 2; ++s) {
       if (s < r.stages.size())
@@ -61,7 +61,7 @@ int run_table(const TableArgs& a) {
                 r.reason.c_str());
   }
   for (const auto& r : results)
-    if (r.status != RunStatus::kOk) return kFailure;
+    if (r.status != engine::RunStatus::kOk) return kFailure;
   return kOk;
 }
 

@@ -22,15 +22,15 @@ void add_effect_options(CLI::App& cmd, std::string& effect, std::vector<std::str
 }
 
 void apply_effect_options(const std::string& effect, const std::vector<std::string>& params,
-                          SimConfig& cfg) {
-  set_extension(cfg, effect);
+                          engine::SimConfig& cfg) {
+  engine::set_extension(cfg, effect);
   for (const std::string& p : params) {
     const auto eq = p.find('=');
     if (eq == std::string::npos || eq == 0)
-      throw InvalidParameter("effect-param", p, "expected NAME=VALUE, e.g. sigma2=50");
+      throw engine::InvalidParameter("effect-param", p, "expected NAME=VALUE, e.g. sigma2=50");
     const std::string name = p.substr(0, eq), text = p.substr(eq + 1);
-    if (extension_of_parameter(name) == ExtensionKind::kNone)
-      throw InvalidParameter("effect-param", name,
+    if (engine::extension_of_parameter(name) == engine::ExtensionKind::kNone)
+      throw engine::InvalidParameter("effect-param", name,
                              "not an extension parameter; expected one of sigma2, "
                              "stribeck_delta, dwell_A, dwell_tau, dwell_v, waviness_eps, "
                              "waviness_lambda, waviness_phi, drift_gamma, load_eta, load_phi, "
@@ -38,8 +38,8 @@ void apply_effect_options(const std::string& effect, const std::vector<std::stri
     char* end = nullptr;
     const double v = std::strtod(text.c_str(), &end);
     if (text.empty() || end != text.c_str() + text.size())
-      throw InvalidParameter(name, text, "not a number");
-    set_parameter(cfg, name, v);
+      throw engine::InvalidParameter(name, text, "not a number");
+    engine::set_parameter(cfg, name, v);
   }
 }
 

@@ -23,13 +23,13 @@ void add_db_option(CLI::App* cmd, std::string& db) {
       ->capture_default_str();
 }
 
-studies::Store open_existing(const std::string& db) {
+store::Store open_existing(const std::string& db) {
   if (!std::filesystem::exists(db))
-    throw studies::StoreError("database '" + db + "' does not exist (set --db or STICKSLIP_DB)");
-  return studies::Store::open(db, studies::Store::Mode::kReadOnly);
+    throw store::StoreError("database '" + db + "' does not exist (set --db or STICKSLIP_DB)");
+  return store::Store::open(db, store::Store::Mode::kReadOnly);
 }
 
-studies::StudyRecord resolve_study(studies::Store& store, const std::string& id_or_name) {
+store::StudyRecord resolve_study(store::Store& store, const std::string& id_or_name) {
   if (auto s = store.get_study(id_or_name)) return *s;
   const auto newest = store.find_newest_by_name(id_or_name);
   if (!newest)
@@ -52,7 +52,7 @@ void write_output(const std::string& path, const std::string& text) {
 int guarded(const char* what, const std::function<int()>& f) {
   try {
     return f();
-  } catch (const studies::StoreError& e) {
+  } catch (const store::StoreError& e) {
     std::cerr << "stickslip " << what << ": " << e.what() << "\n";
     return kBadInput;
   } catch (const std::invalid_argument& e) {

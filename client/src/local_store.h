@@ -7,7 +7,7 @@
 
 #include <CLI/CLI.hpp>
 
-#include "stickslip/studies/store.h"
+#include "stickslip/store/store.h"
 
 namespace stickslip::client {
 
@@ -17,11 +17,11 @@ std::string default_db_path();
 void add_db_option(CLI::App* cmd, std::string& db);
 
 /// Opens an existing database read-only; throws StoreError naming the path.
-studies::Store open_existing(const std::string& db);
+store::Store open_existing(const std::string& db);
 
 /// A study given by id, or by name (the newest study of that name). Throws std::invalid_argument
 /// naming what was looked for when there is none.
-studies::StudyRecord resolve_study(studies::Store& store, const std::string& id_or_name);
+store::StudyRecord resolve_study(store::Store& store, const std::string& id_or_name);
 
 /// Writes text to path ("-" = stdout); throws std::runtime_error naming the path on failure.
 void write_output(const std::string& path, const std::string& text);

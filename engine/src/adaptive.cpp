@@ -22,7 +22,7 @@
 #include "stickslip/engine/exp.h"
 #include "system.h"
 
-namespace stickslip::detail {
+namespace stickslip::engine::detail {
 namespace {
 
 constexpr int kStages = 7;
@@ -540,4 +540,4 @@ void run_adaptive(RunContext& ctx) {
   }
 }
 
-}  // namespace stickslip::detail
+}  // namespace stickslip::engine::detail

@@ -7,7 +7,7 @@
 
 #include "batch_kernel.h"
 
-namespace stickslip {
+namespace stickslip::engine {
 namespace {
 
 std::string lane_why(std::size_t i, std::size_t r, const std::string& ref_value,
@@ -140,4 +140,4 @@ std::vector<SimResult> simulate_batch(const std::vector<SimConfig>& cfgs) {
   return results;
 }
 
-}  // namespace stickslip
+}  // namespace stickslip::engine

@@ -1,7 +1,7 @@
 // Batched RK4 for Dahl and the Reset Integrator.
 #include "batch_kernel.h"
 
-namespace stickslip::detail {
+namespace stickslip::engine::detail {
 namespace {
 
 /// Dahl restricted to kappa = 1: the same arithmetic as Dahl::operator()'s kappa == 1 branch,
@@ -37,4 +37,4 @@ void run_chunk_reset(const ChunkIO& io) {
                              [](const SimConfig& c) { return ResetIntegrator(c.friction); });
 }
 
-}  // namespace stickslip::detail
+}  // namespace stickslip::engine::detail

@@ -2,10 +2,10 @@
 // branches (models.h), so the lane loop vectorises.
 #include "batch_kernel.h"
 
-namespace stickslip::detail {
+namespace stickslip::engine::detail {
 
 void run_chunk_karnopp(const ChunkIO& io) {
   run_chunk<Karnopp, kLanesKarnopp>(io, [](const SimConfig& c) { return Karnopp(c.friction); });
 }
 
-}  // namespace stickslip::detail
+}  // namespace stickslip::engine::detail

@@ -16,7 +16,7 @@
 #include "stickslip/engine/batch.h"
 #include "system.h"
 
-namespace stickslip::detail {
+namespace stickslip::engine::detail {
 
 /// One chunk: lanes [0, lanes) are real; the kernel pads the rest with copies of lane 0.
 struct ChunkIO {
@@ -152,4 +152,4 @@ void run_chunk(const ChunkIO& io, Make&& make) {
     if (alive[j] != 0.0) io.out[j]->t_end = t0;
 }
 
-}  // namespace stickslip::detail
+}  // namespace stickslip::engine::detail

@@ -2,10 +2,10 @@
 // vectorises without -ffast-math.
 #include "batch_kernel.h"
 
-namespace stickslip::detail {
+namespace stickslip::engine::detail {
 
 void run_chunk_lugre(const ChunkIO& io) {
   run_chunk<LuGre, kLanesLuGre>(io, [](const SimConfig& c) { return LuGre(c.friction); });
 }
 
-}  // namespace stickslip::detail
+}  // namespace stickslip::engine::detail

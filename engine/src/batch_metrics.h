@@ -11,7 +11,7 @@
 #include "stickslip/engine/metrics.h"
 #include "stickslip/engine/simulate.h"
 
-namespace stickslip::detail {
+namespace stickslip::engine::detail {
 
 template <int L>
 class LaneAccumulators {
@@ -133,4 +133,4 @@ class LaneAccumulators {
   std::array<Rare, L> rare_;
 };
 
-}  // namespace stickslip::detail
+}  // namespace stickslip::engine::detail

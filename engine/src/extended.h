@@ -15,7 +15,7 @@
 #include "stickslip/engine/extensions.h"
 #include "stickslip/engine/models.h"
 
-namespace stickslip::detail {
+namespace stickslip::engine::detail {
 
 /// Modulation of the friction law at one instant.
 struct Mod {
@@ -160,4 +160,4 @@ class SensorFilter {
   double t_ = 0, u_ = 0, y_ = 0, yd_ = 0;
 };
 
-}  // namespace stickslip::detail
+}  // namespace stickslip::engine::detail

@@ -5,7 +5,7 @@
 
 #include "stickslip/engine/params.h"
 
-namespace stickslip {
+namespace stickslip::engine {
 namespace {
 
 enum class Dom { kNonNegative, kPositive, kFraction, kAny };
@@ -163,4 +163,4 @@ bool get_extension_parameter(const Extension& e, std::string_view name, double* 
   return false;
 }
 
-}  // namespace stickslip
+}  // namespace stickslip::engine

@@ -2,7 +2,7 @@
 
 #include <algorithm>
 
-namespace stickslip {
+namespace stickslip::engine {
 
 double median(std::vector<double> v) {
   if (v.empty()) return 0.0;
@@ -87,4 +87,4 @@ StageMetrics StageAccumulator::finish() const {
   return m;
 }
 
-}  // namespace stickslip
+}  // namespace stickslip::engine

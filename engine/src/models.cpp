@@ -2,7 +2,7 @@
 
 #include <cmath>
 
-namespace stickslip {
+namespace stickslip::engine {
 namespace {
 void positive(const char* name, double v) {
   if (!std::isfinite(v) || !(v > 0)) throw InvalidParameter(name, v, "must be a finite number > 0");
@@ -47,4 +47,4 @@ LuGre::LuGre(const FrictionParams& p)
   inv_vs2 = 1.0 / (v_s * v_s);
 }
 
-}  // namespace stickslip
+}  // namespace stickslip::engine

@@ -5,7 +5,7 @@
 #include <functional>
 #include <sstream>
 
-namespace stickslip {
+namespace stickslip::engine {
 namespace {
 
 std::string fmt(double v) {
@@ -313,4 +313,4 @@ void set_extension(SimConfig& cfg, std::string_view effect) {
   cfg.extension.kind = extension_from_string(effect);
 }
 
-}  // namespace stickslip
+}  // namespace stickslip::engine

@@ -5,7 +5,7 @@
 #include "rk4_step.h"
 #include "system.h"
 
-namespace stickslip::detail {
+namespace stickslip::engine::detail {
 namespace {
 
 // ---- plain RK4: the right-hand side is evaluated as it stands, switches are not located -----
@@ -165,4 +165,4 @@ void run_rk4_event(RunContext& ctx) {
   }
 }
 
-}  // namespace stickslip::detail
+}  // namespace stickslip::engine::detail

@@ -8,7 +8,7 @@
 
 #include "system.h"
 
-namespace stickslip::detail {
+namespace stickslip::engine::detail {
 
 inline State axpy(const State& y, double h, const State& d) noexcept {
   return {fmadd(h, d.x, y.x), fmadd(h, d.v, y.v), fmadd(h, d.s, y.s)};
@@ -64,4 +64,4 @@ class BasePhase {
   double c_ = 1.0, s_ = 0.0, c_half_ = 1.0, s_half_ = 0.0, c_full_ = 1.0, s_full_ = 0.0;
 };
 
-}  // namespace stickslip::detail
+}  // namespace stickslip::engine::detail

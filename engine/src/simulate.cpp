@@ -9,7 +9,7 @@
 #include "integrators.h"
 #include "system.h"
 
-namespace stickslip {
+namespace stickslip::engine {
 
 const char* to_string(RunStatus s) noexcept {
   switch (s) {
@@ -218,4 +218,4 @@ void write_trace_csv(const std::vector<TraceSample>& trace, const std::string& p
   if (!out) throw std::runtime_error("failed writing trace file '" + path + "'");
 }
 
-}  // namespace stickslip
+}  // namespace stickslip::engine

@@ -10,7 +10,7 @@
 #include "stickslip/engine/simulate.h"
 #include "extended.h"
 
-namespace stickslip::detail {
+namespace stickslip::engine::detail {
 
 struct State {
   double x = 0.0;  ///< body position [m]
@@ -491,4 +491,4 @@ void drive_stages(RunContext& ctx, State& y, double* h, IntegrateStage&& integra
   ctx.result.t_end = t0;
 }
 
-}  // namespace stickslip::detail
+}  // namespace stickslip::engine::detail

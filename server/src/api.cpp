@@ -6,10 +6,10 @@
 #include <cstdio>
 
 #include "api_util.h"
-#include "stickslip/studies/diagnosis_request.h"
+#include "stickslip/diagnosis/diagnosis_request.h"
 #include "stickslip/studies/export.h"
-#include "stickslip/studies/json_schema.h"
-#include "stickslip/studies/store.h"
+#include "stickslip/common/json_schema.h"
+#include "stickslip/store/store.h"
 
 namespace stickslip::server {
 
@@ -18,8 +18,8 @@ using detail::is_valid_id;
 using detail::store_failure;
 using detail::unknown_study;
 using nlohmann::json;
-using studies::StoreError;
-using studies::StudyRecord;
+using store::StoreError;
+using store::StudyRecord;
 
 bool ApiOptions::IsValid(std::string* why) const {
   auto fail = [&](const std::string& m) {
@@ -47,12 +47,12 @@ bool ApiOptions::IsValid(std::string* why) const {
   return true;
 }
 
-CancelOutcome cancel_unclaimed(studies::Store& store, const std::string& id) {
+CancelOutcome cancel_unclaimed(store::Store& store, const std::string& id) {
   const auto rec = store.get_study(id);
   if (!rec) return CancelOutcome::kNotFound;
-  if (rec->state != studies::StudyState::kQueued && rec->state != studies::StudyState::kRunning)
+  if (rec->state != store::StudyState::kQueued && rec->state != store::StudyState::kRunning)
     return CancelOutcome::kAlreadyFinished;
-  store.set_study_state(id, studies::StudyState::kCancelled);
+  store.set_study_state(id, store::StudyState::kCancelled);
   return CancelOutcome::kCancelled;
 }
 
@@ -72,7 +72,7 @@ bool same_token(std::string_view a, std::string_view b) {
 
 
 /// The study as `stickslip study show --json` prints it (studies/export.h), plus links.
-json study_json(const StudyRecord& rec, const studies::RunCounts& counts, bool with_spec) {
+json study_json(const StudyRecord& rec, const store::RunCounts& counts, bool with_spec) {
   const std::string self = "/v1/studies/" + rec.id;
   json j = studies::study_to_json(rec, counts);
   j["links"] = {{"self", self}, {"runs", self + "/runs"}, {"map", self + "/map"},
@@ -86,7 +86,7 @@ json study_json(const StudyRecord& rec, const studies::RunCounts& counts, bool w
   return j;
 }
 
-Response study_response(int status, studies::Store& store, const StudyRecord& rec) {
+Response study_response(int status, store::Store& store, const StudyRecord& rec) {
   Response r = json_response(status, study_json(rec, store.count_runs(rec.id), true));
   r.set_header("Location", "/v1/studies/" + rec.id);
   return r;
@@ -208,13 +208,13 @@ Api::Api(ApiOptions options, Scheduler* scheduler, DiagnosisScheduler* diagnoses
   });
   router_.add("GET", "/v1/diagnosis_request.schema.json", [](const Request&, const PathParams&) {
     Response resp = text_response(200, "application/schema+json",
-                                  std::string(studies::diagnosis_request_schema_text()));
+                                  std::string(diagnosis::diagnosis_request_schema_text()));
     resp.set_header("Cache-Control", "public, max-age=3600");
     return resp;
   });
   router_.add("GET", "/v1/diagnosis.schema.json", [](const Request&, const PathParams&) {
     Response resp = text_response(200, "application/schema+json",
-                                  std::string(studies::diagnosis_schema_text()));
+                                  std::string(diagnosis::diagnosis_schema_text()));
     resp.set_header("Cache-Control", "public, max-age=3600");
     return resp;
   });
@@ -289,26 +289,26 @@ Response Api::create_study(const Request& r) const {
                      instance);
     }
   }
-  if (studies::json_nesting_depth(r.body) > studies::kMaxJsonDepth) {
+  if (common::json_nesting_depth(r.body) > common::kMaxJsonDepth) {
     return problem(400, "malformed-json", "Malformed JSON",
                    "the request body nests arrays and objects more than " +
-                       std::to_string(studies::kMaxJsonDepth) + " levels deep",
-                   {FieldError::body("", "nesting deeper than " + std::to_string(studies::kMaxJsonDepth) +
+                       std::to_string(common::kMaxJsonDepth) + " levels deep",
+                   {FieldError::body("", "nesting deeper than " + std::to_string(common::kMaxJsonDepth) +
                                              " levels")},
                    instance);
   }
-  std::vector<studies::SpecError> json_errors;
-  const auto doc = studies::parse_json(r.body, &json_errors);
+  std::vector<common::SpecError> json_errors;
+  const auto doc = common::parse_json(r.body, &json_errors);
   if (!doc) {
     std::vector<FieldError> fields;
     for (const auto& e : json_errors) fields.push_back(FieldError::body(e.pointer, e.message));
     return problem(400, "malformed-json", "Malformed JSON",
-                   "the request body is not valid JSON: " + studies::to_string(json_errors),
+                   "the request body is not valid JSON: " + common::to_string(json_errors),
                    fields, instance);
   }
   // The request identity for Idempotency-Key: the hash of the canonical (sorted-key, compact)
   // JSON, so a replay that only differs in whitespace or key order is still a replay.
-  const std::string request_hash = studies::param_hash(doc->dump());
+  const std::string request_hash = store::param_hash(doc->dump());
   try {
     auto store = pool_.acquire();
     if (key) {
@@ -325,16 +325,16 @@ Response Api::create_study(const Request& r) const {
       for (const auto& e : parsed.errors) fields.push_back(FieldError::body(e.pointer, e.message));
       return problem(422, "invalid-study", "Invalid study",
                      std::to_string(parsed.errors.size()) + " problem(s) in the study: " +
-                         studies::to_string(parsed.errors),
+                         common::to_string(parsed.errors),
                      fields, instance);
     }
     const auto& spec = *parsed.spec;
-    studies::NewStudy ns;
+    store::NewStudy ns;
     ns.name = spec.name();
     // Stored like `stickslip study run` stores it (runner.h create_or_find_study): the canonical
     // spec, with every default filled in, and its hash.
     ns.spec_json = spec.canonical_json();
-    ns.spec_hash = studies::param_hash(ns.spec_json);
+    ns.spec_hash = store::param_hash(ns.spec_json);
     ns.total_runs = static_cast<std::int64_t>(spec.run_count());
     ns.idempotency_key = key;
     if (key) ns.request_hash = request_hash;
@@ -437,9 +437,9 @@ Response Api::cancel_study(const Request& r, const std::string& id) const {
     const auto rec = store->get_study(id);
     if (!rec) return unknown_study(id, r.path());
     if (outcome == CancelOutcome::kAlreadyFinished &&
-        rec->state != studies::StudyState::kCancelled) {
+        rec->state != store::StudyState::kCancelled) {
       return problem(409, "study-finished", "Study already finished",
-                     "study " + id + " is " + studies::to_string(rec->state) +
+                     "study " + id + " is " + store::to_string(rec->state) +
                          " and can no longer be cancelled",
                      {}, r.path());
     }

@@ -5,16 +5,16 @@
 
 #include "api_util.h"
 #include "stickslip/server/api.h"
-#include "stickslip/studies/diagnosis_request.h"
-#include "stickslip/studies/json_schema.h"
-#include "stickslip/studies/store.h"
+#include "stickslip/diagnosis/diagnosis_request.h"
+#include "stickslip/common/json_schema.h"
+#include "stickslip/store/store.h"
 
 namespace stickslip::server {
 namespace {
 
 using nlohmann::json;
-using studies::DiagnosisRecord;
-using studies::StoreError;
+using store::DiagnosisRecord;
+using store::StoreError;
 
 const std::string kCollection = "/v1/diagnoses";
 
@@ -26,7 +26,7 @@ json diagnosis_json(const DiagnosisRecord& rec, bool with_result) {
   const std::string self = kCollection + "/" + rec.id;
   json j = {{"id", rec.id},
             {"name", rec.name},
-            {"state", studies::to_string(rec.state)},
+            {"state", store::to_string(rec.state)},
             {"created_at", rec.created_at},
             {"started_at", opt_text(rec.started_at)},
             {"finished_at", opt_text(rec.finished_at)},
@@ -69,7 +69,7 @@ Response replay(const DiagnosisRecord& rec) {
   return r;
 }
 
-std::vector<FieldError> body_errors(const std::vector<studies::SpecError>& errors) {
+std::vector<FieldError> body_errors(const std::vector<common::SpecError>& errors) {
   std::vector<FieldError> out;
   for (const auto& e : errors) out.push_back(FieldError::body(e.pointer, e.message));
   return out;
@@ -95,25 +95,25 @@ Response Api::create_diagnosis(const Request& r) const {
   }
   if (auto bad = detail::check_idempotency_key(r, kCollection)) return *bad;
   const auto key = r.header("Idempotency-Key");
-  if (studies::json_nesting_depth(r.body) > studies::kMaxJsonDepth) {
+  if (common::json_nesting_depth(r.body) > common::kMaxJsonDepth) {
     return problem(400, "malformed-json", "Malformed JSON",
                    "the request body nests arrays and objects more than " +
-                       std::to_string(studies::kMaxJsonDepth) + " levels deep",
+                       std::to_string(common::kMaxJsonDepth) + " levels deep",
                    {FieldError::body("", "nesting deeper than " +
-                                             std::to_string(studies::kMaxJsonDepth) + " levels")},
+                                             std::to_string(common::kMaxJsonDepth) + " levels")},
                    kCollection);
   }
-  std::vector<studies::SpecError> json_errors;
-  const auto doc = studies::parse_json(r.body, &json_errors);
+  std::vector<common::SpecError> json_errors;
+  const auto doc = common::parse_json(r.body, &json_errors);
   if (!doc) {
     return problem(400, "malformed-json", "Malformed JSON",
-                   "the request body is not valid JSON: " + studies::to_string(json_errors),
+                   "the request body is not valid JSON: " + common::to_string(json_errors),
                    body_errors(json_errors), kCollection);
   }
   // The canonical request (sorted keys, compact) is what is stored and hashed, so a replay that
   // differs only in whitespace or key order is still a replay.
   std::string canonical = doc->dump();
-  const std::string request_hash = studies::param_hash(canonical);
+  const std::string request_hash = store::param_hash(canonical);
   try {
     auto store = pool_.acquire();
     if (key) {
@@ -124,15 +124,15 @@ Response Api::create_diagnosis(const Request& r) const {
     }
     // Every check the worker will make (schema, options, CSV contents), so that a bad request
     // is a 422 now, never a failed diagnosis later.
-    const auto parsed = studies::parse_diagnosis_request(*doc, options_.diagnosis_threads);
+    const auto parsed = diagnosis::parse_diagnosis_request(*doc, options_.diagnosis_threads);
     if (!parsed.ok()) {
       return problem(422, "invalid-diagnosis", "Invalid diagnosis request",
                      std::to_string(parsed.errors.size()) +
                          " problem(s) in the diagnosis request: " +
-                         studies::to_string(parsed.errors),
+                         common::to_string(parsed.errors),
                      body_errors(parsed.errors), kCollection);
     }
-    studies::NewDiagnosis nd;
+    store::NewDiagnosis nd;
     nd.name = parsed.request->data.name;
     nd.request_json = std::move(canonical);
     nd.request_hash = request_hash;
@@ -192,9 +192,9 @@ Response Api::cancel_diagnosis(const Request& r, const std::string& id) const {
     const auto rec = store->get_diagnosis(id);
     if (!rec) return unknown_diagnosis(id, r.path());
     if (outcome == CancelOutcome::kAlreadyFinished &&
-        rec->state != studies::StudyState::kCancelled) {
+        rec->state != store::StudyState::kCancelled) {
       return problem(409, "diagnosis-finished", "Diagnosis already finished",
-                     "diagnosis " + id + " is " + studies::to_string(rec->state) +
+                     "diagnosis " + id + " is " + store::to_string(rec->state) +
                          " and can no longer be cancelled",
                      {}, r.path());
     }

@@ -6,7 +6,7 @@
 #include "api_util.h"
 #include "stickslip/server/api.h"
 #include "stickslip/studies/export.h"
-#include "stickslip/studies/json_schema.h"
+#include "stickslip/common/json_schema.h"
 #include "stickslip/studies/map.h"
 
 namespace stickslip::server {
@@ -15,8 +15,8 @@ using detail::Format;
 using detail::store_failure;
 using detail::unknown_study;
 using nlohmann::json;
-using studies::RunRecord;
-using studies::StoreError;
+using store::RunRecord;
+using store::StoreError;
 
 namespace {
 
@@ -31,8 +31,8 @@ std::optional<std::int64_t> runs_token(const std::string& s) {
 
 /// Number of stages of a stored spec (the canonical spec lists them all).
 std::size_t stage_count(const std::string& spec_json) {
-  std::vector<studies::SpecError> ignored;
-  const auto spec = studies::parse_json(spec_json, &ignored);
+  std::vector<common::SpecError> ignored;
+  const auto spec = common::parse_json(spec_json, &ignored);
   if (!spec || !spec->contains("stages") || !(*spec)["stages"].is_array()) return 2;
   return (*spec)["stages"].size();
 }

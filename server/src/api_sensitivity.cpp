@@ -6,7 +6,7 @@
 #include "api_util.h"
 #include "stickslip/server/api.h"
 #include "stickslip/studies/indices.h"
-#include "stickslip/studies/report.h"
+#include "stickslip/reports/report.h"
 
 namespace stickslip::server {
 
@@ -87,7 +87,7 @@ Response Api::get_indices(const Request& r, const std::string& id) const {
       return problem(422, "no-indices", "Indices not available", e.what(),
                      {FieldError::query("output", e.what())}, r.path());
     }
-  } catch (const studies::StoreError& e) {
+  } catch (const store::StoreError& e) {
     return store_failure(e, r.path());
   }
 }
@@ -95,7 +95,7 @@ Response Api::get_indices(const Request& r, const std::string& id) const {
 Response Api::list_reports(const Request& r) const {
   json list = json::array();
   if (!options_.reports_dir.empty())
-    for (const std::string& d : studies::list_report_dates(options_.reports_dir))
+    for (const std::string& d : reports::list_report_dates(options_.reports_dir))
       list.push_back({{"date", d},
                       {"html", "/v1/reports/" + d + "/index.html"},
                       {"summary", "/v1/reports/" + d + "/summary.json"}});

@@ -130,7 +130,7 @@ Response unknown_study(const std::string& id, const std::string& instance) {
                  {}, instance);
 }
 
-Response store_failure(const studies::StoreError& e, const std::string& instance) {
+Response store_failure(const store::StoreError& e, const std::string& instance) {
   Response r = problem(503, "store-unavailable", "Store unavailable",
                        std::string("the study store failed: ") + e.what(), {}, instance);
   r.set_header("Retry-After", "1");

@@ -8,7 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include "stickslip/server/http.h"
-#include "stickslip/studies/store.h"
+#include "stickslip/store/store.h"
 
 namespace stickslip::server::detail {
 
@@ -54,7 +54,7 @@ bool is_json_content_type(const std::string& value);
 std::optional<Response> check_idempotency_key(const Request& r, const std::string& instance);
 
 Response unknown_study(const std::string& id, const std::string& instance);
-Response store_failure(const studies::StoreError& e, const std::string& instance);
+Response store_failure(const store::StoreError& e, const std::string& instance);
 
 /// A number, or null for NaN and infinities (JSON has neither).
 nlohmann::json number_or_null(double v);

@@ -8,18 +8,18 @@
 #include <cerrno>
 #include <cstring>
 
-#include "stickslip/studies/diagnosis_request.h"
+#include "stickslip/diagnosis/diagnosis_request.h"
 
 namespace stickslip::server {
 
-using studies::StudyState;
+using store::StudyState;
 
-nlohmann::json run_diagnosis(const studies::MeasuredDataset& data,
-                             const studies::DiagnoseOptions& options) {
-  return studies::to_json(studies::diagnose(data, options));
+nlohmann::json run_diagnosis(const measured::MeasuredDataset& data,
+                             const diagnosis::DiagnoseOptions& options) {
+  return diagnosis::to_json(diagnosis::diagnose(data, options));
 }
 
-CancelOutcome cancel_diagnosis_unclaimed(studies::Store& store, const std::string& id) {
+CancelOutcome cancel_diagnosis_unclaimed(store::Store& store, const std::string& id) {
   const auto rec = store.get_diagnosis(id);
   if (!rec) return CancelOutcome::kNotFound;
   if (rec->state != StudyState::kQueued && rec->state != StudyState::kRunning)
@@ -57,7 +57,7 @@ struct DiagnosisWorker::Shared {
   std::atomic<std::size_t> finished{0};
 
   /// Under mu: the first queued or running diagnosis, switched to running; empty when none.
-  std::string claim_next(studies::Store& store) {
+  std::string claim_next(store::Store& store) {
     std::string after;
     constexpr std::size_t kPage = 256;
     while (true) {
@@ -74,20 +74,20 @@ struct DiagnosisWorker::Shared {
     }
   }
 
-  void run_one(studies::Store& store, const std::string& id) {
+  void run_one(store::Store& store, const std::string& id) {
     try {
       const auto text = store.get_diagnosis_request(id);
       if (!text) return;
-      std::vector<studies::SpecError> errors;
-      const auto doc = studies::parse_json(*text, &errors);
-      std::optional<studies::DiagnosisRequest> request;
+      std::vector<common::SpecError> errors;
+      const auto doc = common::parse_json(*text, &errors);
+      std::optional<diagnosis::DiagnosisRequest> request;
       if (doc) {
-        auto parsed = studies::parse_diagnosis_request(*doc, options.threads);
+        auto parsed = diagnosis::parse_diagnosis_request(*doc, options.threads);
         errors = std::move(parsed.errors);
         request = std::move(parsed.request);
       }
       if (!request) {
-        const std::string why = "stored request is invalid: " + studies::to_string(errors);
+        const std::string why = "stored request is invalid: " + common::to_string(errors);
         spdlog::error("diagnosis {}: {}", id, why);
         store.finish_diagnosis(id, StudyState::kFailed, std::nullopt, why);
         return;
@@ -96,7 +96,7 @@ struct DiagnosisWorker::Shared {
                    request->data.runs.size());
       const auto t0 = std::chrono::steady_clock::now();
       std::optional<std::string> result, error;
-      studies::DiagnoseOptions diag_options = request->options;
+      diagnosis::DiagnoseOptions diag_options = request->options;
       diag_options.stop_requested = [this] { return stop_running.load(); };
       try {
         result = fn(request->data, diag_options).dump();
@@ -137,7 +137,7 @@ struct DiagnosisWorker::Shared {
       if (::setpriority(PRIO_PROCESS, tid, options.nice) != 0)
         spdlog::warn("diagnosis worker: cannot lower its priority: {}", std::strerror(errno));
     }
-    std::unique_ptr<studies::Store> store;
+    std::unique_ptr<store::Store> store;
     while (true) {
       std::string id;
       {
@@ -145,7 +145,7 @@ struct DiagnosisWorker::Shared {
         if (stopping) break;
         const std::uint64_t seen = notifications;
         try {
-          if (!store) store = std::make_unique<studies::Store>(studies::Store::open(db));
+          if (!store) store = std::make_unique<store::Store>(store::Store::open(db));
           id = claim_next(*store);
         } catch (const std::exception& e) {
           spdlog::error("diagnosis worker: cannot read the queue: {}", e.what());
@@ -200,7 +200,7 @@ bool DiagnosisWorker::shutdown(std::chrono::milliseconds grace) {
   if (!thread_.joinable()) return true;
   if (running) {
     try {
-      auto store = studies::Store::open(shared_->db);
+      auto store = store::Store::open(shared_->db);
       if (store.requeue_diagnosis(*running))
         spdlog::info("diagnosis {}: interrupted by shutdown, re-queued", *running);
     } catch (const std::exception& e) {
@@ -232,7 +232,7 @@ void DiagnosisWorker::notify_diagnosis() {
   shared_->cv.notify_all();
 }
 
-CancelOutcome DiagnosisWorker::cancel_diagnosis(studies::Store& store, const std::string& id) {
+CancelOutcome DiagnosisWorker::cancel_diagnosis(store::Store& store, const std::string& id) {
   std::lock_guard lock(shared_->mu);
   // Claimed or not, the store decides: a running diagnosis becomes cancelled now and the
   // worker's finish_diagnosis will not overwrite it. A running one is also asked to stop.

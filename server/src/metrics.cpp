@@ -37,7 +37,7 @@ class ReadOnlyDb {
       const std::string msg = db_ != nullptr ? sqlite3_errmsg(db_) : "out of memory";
       sqlite3_close_v2(db_);
       db_ = nullptr;
-      throw studies::StoreError(path + ": cannot open for metrics: " + msg);
+      throw store::StoreError(path + ": cannot open for metrics: " + msg);
     }
     sqlite3_busy_timeout(db_, 2000);
   }
@@ -49,12 +49,12 @@ class ReadOnlyDb {
   void each(const std::string& sql, Row row) {
     sqlite3_stmt* st = nullptr;
     if (sqlite3_prepare_v2(db_, sql.c_str(), -1, &st, nullptr) != SQLITE_OK)
-      throw studies::StoreError(std::string("metrics query failed: ") + sqlite3_errmsg(db_));
+      throw store::StoreError(std::string("metrics query failed: ") + sqlite3_errmsg(db_));
     int rc = 0;
     while ((rc = sqlite3_step(st)) == SQLITE_ROW) row(st);
     sqlite3_finalize(st);
     if (rc != SQLITE_DONE)
-      throw studies::StoreError(std::string("metrics query failed: ") + sqlite3_errmsg(db_));
+      throw store::StoreError(std::string("metrics query failed: ") + sqlite3_errmsg(db_));
   }
 
  private:
@@ -119,7 +119,7 @@ Response Api::metrics(const Request& r) const {
   StoreFigures f;
   try {
     f = read_figures(options_.db.string());
-  } catch (const studies::StoreError& e) {
+  } catch (const store::StoreError& e) {
     return detail::store_failure(e, r.path());
   }
   std::string out;

@@ -4,7 +4,7 @@ namespace stickslip::server {
 
 StorePool::StorePool(std::filesystem::path db, std::size_t max_idle)
     : db_(std::move(db)), max_idle_(max_idle) {
-  idle_.push_back(std::make_unique<studies::Store>(studies::Store::open(db_)));
+  idle_.push_back(std::make_unique<store::Store>(store::Store::open(db_)));
 }
 
 StorePool::Lease::~Lease() {
@@ -20,10 +20,10 @@ StorePool::Lease StorePool::acquire() {
       return Lease(this, std::move(store));
     }
   }
-  return Lease(this, std::make_unique<studies::Store>(studies::Store::open(db_)));
+  return Lease(this, std::make_unique<store::Store>(store::Store::open(db_)));
 }
 
-void StorePool::release(std::unique_ptr<studies::Store> store) {
+void StorePool::release(std::unique_ptr<store::Store> store) {
   std::lock_guard lock(mu_);
   if (idle_.size() < max_idle_) idle_.push_back(std::move(store));
 }

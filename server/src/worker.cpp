@@ -6,7 +6,7 @@
 
 namespace stickslip::server {
 
-using studies::StudyState;
+using store::StudyState;
 
 
 bool WorkerOptions::IsValid(std::string* why) const {
@@ -56,7 +56,7 @@ void Worker::notify() {
   cv_.notify_all();
 }
 
-CancelOutcome Worker::cancel(studies::Store& store, const std::string& id) {
+CancelOutcome Worker::cancel(store::Store& store, const std::string& id) {
   std::lock_guard lock(mu_);
   if (const auto it = claims_.find(id); it != claims_.end()) {
     it->second->cancel.store(true);
@@ -74,7 +74,7 @@ std::vector<std::string> Worker::running() const {
   return ids;
 }
 
-std::string Worker::claim_next(studies::Store& store, std::shared_ptr<Claim>* claim) {
+std::string Worker::claim_next(store::Store& store, std::shared_ptr<Claim>* claim) {
   // The store is the queue: scan studies in id (= creation) order for unfinished ones.
   std::string after;
   constexpr std::size_t kPage = 256;
@@ -96,7 +96,7 @@ void Worker::loop() {
   // Threads it creates (the compute thread and libgomp team of run_study) inherit it.
   if (std::string why; !lower_thread_priority(options_.nice, &why))
     spdlog::warn("worker: cannot lower its priority: {}", why);
-  std::unique_ptr<studies::Store> store;
+  std::unique_ptr<store::Store> store;
   while (true) {
     std::string id;
     std::shared_ptr<Claim> claim;
@@ -105,7 +105,7 @@ void Worker::loop() {
       if (stopping_) return;
       const std::uint64_t seen = notifications_;
       try {
-        if (!store) store = std::make_unique<studies::Store>(studies::Store::open(db_));
+        if (!store) store = std::make_unique<store::Store>(store::Store::open(db_));
         id = claim_next(*store, &claim);
       } catch (const std::exception& e) {
         spdlog::error("worker: cannot read the study queue: {}", e.what());
@@ -126,7 +126,7 @@ void Worker::loop() {
   }
 }
 
-void Worker::run_one(studies::Store& store, const std::string& id,
+void Worker::run_one(store::Store& store, const std::string& id,
                      const std::shared_ptr<Claim>& claim) {
   try {
     const auto rec = store.get_study(id);

@@ -1,4 +1,4 @@
-#include "stickslip/studies/json_number.h"
+#include "stickslip/common/json_number.h"
 #include "stickslip/studies/export.h"
 
 #include <cmath>
@@ -30,38 +30,38 @@ std::string quoted(std::string s) {
 
 }  // namespace
 
-json run_to_json(const RunRecord& r) {
+json run_to_json(const store::RunRecord& r) {
   json stages = json::array();
   for (const auto& s : r.stages)
     stages.push_back({{"stage", s.stage},
-                      {"t_start", json_number(s.t_start)},
-                      {"t_end", json_number(s.t_end)},
-                      {"amplitude", json_number(s.amplitude)},
-                      {"amplitude_raw", json_number(s.amplitude_raw)},
-                      {"mean_force", json_number(s.mean_force)},
-                      {"mean_friction", json_number(s.mean_friction)},
+                      {"t_start", common::json_number(s.t_start)},
+                      {"t_end", common::json_number(s.t_end)},
+                      {"amplitude", common::json_number(s.amplitude)},
+                      {"amplitude_raw", common::json_number(s.amplitude_raw)},
+                      {"mean_force", common::json_number(s.mean_force)},
+                      {"mean_friction", common::json_number(s.mean_friction)},
                       {"slip_events", s.slip_events},
-                      {"mean_period", json_number(s.mean_period)},
-                      {"rmse", json_number(s.rmse)}});
+                      {"mean_period", common::json_number(s.mean_period)},
+                      {"rmse", common::json_number(s.rmse)}});
   json params = json::parse(r.params_json.empty() ? "{}" : r.params_json, nullptr, false);
   if (params.is_discarded()) params = json::object();
   json out = {{"design_index", r.design_index},
               {"model", r.model ? json(*r.model) : json(nullptr)},
-              {"va_over_vd", json_number(r.va_over_vd)},
+              {"va_over_vd", common::json_number(r.va_over_vd)},
               {"status", r.status},
               {"error", r.error.empty() ? json(nullptr) : json(r.error)},
               {"params", params},
               {"param_hash", r.param_hash},
-              {"wall_time_s", json_number(r.wall_time_s)},
-              {"t_end", json_number(r.t_end)},
+              {"wall_time_s", common::json_number(r.wall_time_s)},
+              {"t_end", common::json_number(r.t_end)},
               {"steps", r.steps},
-              {"rmse", json_number(r.rmse)},
+              {"rmse", common::json_number(r.rmse)},
               {"finished_at", r.finished_at},
               {"stages", stages}};
   return out;
 }
 
-json study_to_json(const StudyRecord& s, const RunCounts& c) {
+json study_to_json(const store::StudyRecord& s, const store::RunCounts& c) {
   const auto opt = [](const std::optional<std::string>& v) { return v ? json(*v) : json(nullptr); };
   return {{"id", s.id},
           {"name", s.name},
@@ -74,7 +74,7 @@ json study_to_json(const StudyRecord& s, const RunCounts& c) {
           {"error", opt(s.error)}};
 }
 
-std::vector<std::string> param_names_of(const RunRecord& run) {
+std::vector<std::string> param_names_of(const store::RunRecord& run) {
   std::vector<std::string> names;
   const json params = json::parse(run.params_json.empty() ? "{}" : run.params_json, nullptr, false);
   if (!params.is_object()) return names;
@@ -94,10 +94,10 @@ std::string runs_csv_header(const std::vector<std::string>& names, std::size_t s
   return o.str();
 }
 
-std::string runs_csv_rows(const std::vector<RunRecord>& runs, const std::vector<std::string>& names,
+std::string runs_csv_rows(const std::vector<store::RunRecord>& runs, const std::vector<std::string>& names,
                           std::size_t stages) {
   std::ostringstream o;
-  for (const RunRecord& r : runs) {
+  for (const store::RunRecord& r : runs) {
     const json params = json::parse(r.params_json.empty() ? "{}" : r.params_json, nullptr, false);
     o << r.design_index << ',' << (r.model ? *r.model : "") << ',' << cell(r.va_over_vd) << ','
       << r.status;
@@ -107,7 +107,7 @@ std::string runs_csv_rows(const std::vector<RunRecord>& runs, const std::vector<
         o << cell(params[n].get<double>());
     }
     for (std::size_t s = 1; s <= stages; ++s) {
-      const StageMetricsRecord* m = nullptr;
+      const store::StageMetricsRecord* m = nullptr;
       for (const auto& st : r.stages)
         if (st.stage == static_cast<int>(s)) m = &st;
       if (m == nullptr) {

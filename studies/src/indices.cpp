@@ -1,5 +1,5 @@
 // Sensitivity indices of stored studies (see indices.h).
-#include "stickslip/studies/json_number.h"
+#include "stickslip/common/json_number.h"
 #include "stickslip/studies/indices.h"
 
 #include <algorithm>
@@ -14,7 +14,7 @@ namespace {
 
 using nlohmann::json;
 
-json interval(const sensitivity::Interval& i) { return json::array({json_number(i.lo), json_number(i.hi)}); }
+json interval(const sensitivity::Interval& i) { return json::array({common::json_number(i.lo), common::json_number(i.hi)}); }
 
 std::size_t stage_count(const StudySpec& spec) {
   return spec.is_analytic() ? 1 : spec.base_config().stages.size();
@@ -61,16 +61,16 @@ std::optional<Output> parse_output(const StudySpec& spec, const std::string& nam
   return std::nullopt;
 }
 
-const StageMetricsRecord* find_stage(const RunRecord& run, std::size_t k) {
+const store::StageMetricsRecord* find_stage(const store::RunRecord& run, std::size_t k) {
   for (const auto& s : run.stages)
     if (s.stage == static_cast<int>(k)) return &s;
   return nullptr;
 }
 
 // The value of an output for an ok run; NaN with a reason when it is not finite.
-double output_value(const Output& o, const RunRecord& run, std::size_t stages, std::string* why) {
+double output_value(const Output& o, const store::RunRecord& run, std::size_t stages, std::string* why) {
   auto stage_value = [&](std::size_t k, bool amplitude) {
-    const StageMetricsRecord* s = find_stage(run, k);
+    const store::StageMetricsRecord* s = find_stage(run, k);
     if (s == nullptr) {
       *why = "stage " + std::to_string(k) + " has no metrics (not reached)";
       return std::nan("");
@@ -100,7 +100,7 @@ double output_value(const Output& o, const RunRecord& run, std::size_t stages, s
   return std::nan("");
 }
 
-StudySpec parse_stored(const StudyRecord& study) {
+StudySpec parse_stored(const store::StudyRecord& study) {
   Limits limits;
   limits.max_runs = static_cast<std::size_t>(std::max<std::int64_t>(study.total_runs, 1));
   ParseResult parsed = parse_study(study.spec_json, limits);
@@ -151,13 +151,13 @@ std::string check_output(const StudySpec& spec, const std::string& output) {
   return parse_output(spec, output, &why) ? std::string() : why;
 }
 
-StudyIndices compute_indices(Store& store, const std::string& study_id,
+StudyIndices compute_indices(store::Store& store, const std::string& study_id,
                              const std::vector<std::string>& outputs,
                              const IndicesOptions& options) {
   std::string why;
   if (!options.IsValid(&why)) throw std::invalid_argument("indices options: " + why);
   const auto study = store.get_study(study_id);
-  if (!study) throw StoreError("unknown study '" + study_id + "' in " + store.path().string());
+  if (!study) throw store::StoreError("unknown study '" + study_id + "' in " + store.path().string());
   const StudySpec spec = parse_stored(*study);
   const Design& design = spec.design();
   if (design.type != DesignType::kSobol && design.type != DesignType::kMorris)
@@ -212,7 +212,7 @@ StudyIndices compute_indices(Store& store, const std::string& study_id,
   while (true) {
     const auto page = store.get_runs(study_id, after, 2000);
     if (page.empty()) break;
-    for (const RunRecord& run : page) {
+    for (const store::RunRecord& run : page) {
       after = run.design_index;
       if (run.design_index < 0 || static_cast<std::size_t>(run.design_index) >= runs) continue;
       const auto i = static_cast<std::size_t>(run.design_index);
@@ -322,24 +322,24 @@ nlohmann::json indices_to_json(const StudyIndices& r) {
     for (const auto& p : o.invalid_points)
       pts.push_back({{"design_index", p.design_index}, {"status", p.status}, {"reason", p.reason}});
     jo["invalid_points"] = pts;
-    jo["mean"] = o.valid ? json_number(o.mean) : json(nullptr);
-    jo["variance"] = o.valid ? json_number(o.variance) : json(nullptr);
+    jo["mean"] = o.valid ? common::json_number(o.mean) : json(nullptr);
+    jo["variance"] = o.valid ? common::json_number(o.variance) : json(nullptr);
     json idx = json::array();
     for (std::size_t p = 0; p < r.parameters.size(); ++p) {
       if (o.sobol) {
         const auto& s = *o.sobol;
         idx.push_back({{"parameter", r.parameters[p]},
-                       {"S1", json_number(s.S1[p])},
+                       {"S1", common::json_number(s.S1[p])},
                        {"S1_ci", interval(s.S1_ci[p])},
-                       {"ST", json_number(s.ST[p])},
+                       {"ST", common::json_number(s.ST[p])},
                        {"ST_ci", interval(s.ST_ci[p])}});
       } else if (o.morris) {
         const auto& m = *o.morris;
         idx.push_back({{"parameter", r.parameters[p]},
-                       {"mu", json_number(m.mu[p])},
-                       {"mu_star", json_number(m.mu_star[p])},
+                       {"mu", common::json_number(m.mu[p])},
+                       {"mu_star", common::json_number(m.mu_star[p])},
                        {"mu_star_ci", interval(m.mu_star_ci[p])},
-                       {"sigma", json_number(m.sigma[p])}});
+                       {"sigma", common::json_number(m.sigma[p])}});
       }
     }
     jo["indices"] = idx;
@@ -393,7 +393,7 @@ std::string indices_to_table(const StudyIndices& r) {
   return s.str();
 }
 
-nlohmann::json indices_json(Store& store, const std::string& study_id,
+nlohmann::json indices_json(store::Store& store, const std::string& study_id,
                             const std::vector<std::string>& outputs,
                             const IndicesOptions& options) {
   return indices_to_json(compute_indices(store, study_id, outputs, options));

@@ -1,5 +1,5 @@
 // Stick-slip maps of stored studies (see map.h).
-#include "stickslip/studies/json_number.h"
+#include "stickslip/common/json_number.h"
 #include "stickslip/studies/map.h"
 
 #include <algorithm>
@@ -45,9 +45,9 @@ const char* to_string(CellState s) noexcept {
   return "?";
 }
 
-StudyMap build_map(Store& store, const std::string& study_id) {
+StudyMap build_map(store::Store& store, const std::string& study_id) {
   const auto study = store.get_study(study_id);
-  if (!study) throw StoreError("unknown study '" + study_id + "' in " + store.path().string());
+  if (!study) throw store::StoreError("unknown study '" + study_id + "' in " + store.path().string());
   ParseResult parsed = parse_study(study->spec_json, Limits{.max_runs = static_cast<std::size_t>(
                                                                 std::max<std::int64_t>(study->total_runs, 1))});
   if (!parsed.ok())
@@ -105,7 +105,7 @@ StudyMap build_map(Store& store, const std::string& study_id) {
   while (true) {
     const auto runs = store.get_runs(study_id, after, 2000);
     if (runs.empty()) break;
-    for (const RunRecord& run : runs) {
+    for (const store::RunRecord& run : runs) {
       after = run.design_index;
       if (run.design_index < 0 || static_cast<std::size_t>(run.design_index) >= where.size()) continue;
       const auto [row, col] = where[run.design_index];
@@ -116,7 +116,7 @@ StudyMap build_map(Store& store, const std::string& study_id) {
       c.amplitude.assign(map.stages, std::nan(""));
       c.mean_force.assign(map.stages, std::nan(""));
       c.stage_rmse.assign(map.stages, std::nullopt);
-      for (const StageMetricsRecord& s : run.stages) {
+      for (const store::StageMetricsRecord& s : run.stages) {
         if (s.stage < 1 || static_cast<std::size_t>(s.stage) > map.stages) continue;
         c.amplitude[s.stage - 1] = s.amplitude;
         c.mean_force[s.stage - 1] = s.mean_force;
@@ -147,7 +147,7 @@ json map_to_json(const StudyMap& map) {
   json rows = json::array();
   for (const MapRow& r : map.rows) {
     json key = json::object();
-    for (const auto& [n, v] : r.key) key[n] = json_number(v);
+    for (const auto& [n, v] : r.key) key[n] = common::json_number(v);
     json cells = json::object();
     for (std::size_t m = 0; m < map.models.size(); ++m) {
       const MapCell& c = r.cells[m];
@@ -158,14 +158,14 @@ json map_to_json(const StudyMap& map) {
         if (!c.error.empty()) cell["error"] = c.error;
         json amp = json::array(), mean = json::array(), srm = json::array();
         for (std::size_t s = 0; s < c.amplitude.size(); ++s) {
-          amp.push_back(json_number(c.amplitude[s]));
-          mean.push_back(json_number(c.mean_force[s]));
-          srm.push_back(json_number(c.stage_rmse[s]));
+          amp.push_back(common::json_number(c.amplitude[s]));
+          mean.push_back(common::json_number(c.mean_force[s]));
+          srm.push_back(common::json_number(c.stage_rmse[s]));
         }
         cell["amplitude"] = amp;
         cell["mean_force"] = mean;
-        cell["ratio"] = json_number(c.ratio);
-        cell["rmse"] = json_number(c.rmse);
+        cell["ratio"] = common::json_number(c.ratio);
+        cell["rmse"] = common::json_number(c.rmse);
         cell["stage_rmse"] = srm;
       }
       cells[map.models[m]] = cell;

@@ -27,28 +27,28 @@ double seconds_since(Clock::time_point t0) {
 
 // Sample rate [Hz] of the dense trace used to compare with a measured run: at least 2 kHz and
 // twice the measured mean rate, so linear interpolation adds no visible error to the RMSE.
-double rmse_trace_rate(const MeasuredRun& m) {
+double rmse_trace_rate(const measured::MeasuredRun& m) {
   const double span = m.t.back() - m.t.front();
   const double mean_rate = span > 0 ? static_cast<double>(m.t.size() - 1) / span : 2000.0;
   return std::min(50000.0, std::max(2000.0, 2.0 * mean_rate));
 }
 
-const MeasuredRun* find_match(const MeasuredDataset* measured, const SimConfig& cfg) {
+const measured::MeasuredRun* find_match(const measured::MeasuredDataset* measured, const engine::SimConfig& cfg) {
   if (measured == nullptr) return nullptr;
-  for (const MeasuredRun& m : measured->runs)
-    if (matches_conditions(cfg, m.conditions)) return &m;
+  for (const measured::MeasuredRun& m : measured->runs)
+    if (measured::matches_conditions(cfg, m.conditions)) return &m;
   return nullptr;
 }
 
-void fill_from_result(const SimResult& res, RunRecord& r) {
+void fill_from_result(const engine::SimResult& res, store::RunRecord& r) {
   r.status = to_string(res.status);
   r.error = res.reason;
   r.t_end = res.t_end;
   r.steps = static_cast<std::int64_t>(res.steps);
   r.stages.clear();
   for (std::size_t s = 0; s < res.stages.size(); ++s) {
-    const StageMetrics& m = res.stages[s];
-    StageMetricsRecord rec;
+    const engine::StageMetrics& m = res.stages[s];
+    store::StageMetricsRecord rec;
     rec.stage = static_cast<int>(s) + 1;
     rec.t_start = m.t_start;
     rec.t_end = m.t_end;
@@ -63,41 +63,41 @@ void fill_from_result(const SimResult& res, RunRecord& r) {
 }
 
 // RMSE of the run against its measured run: whole trace and per stage (eq. 23 of the seed).
-void add_rmse(const SimConfig& cfg, const SimResult& res, const MeasuredRun& m, RunRecord& r) {
+void add_rmse(const engine::SimConfig& cfg, const engine::SimResult& res, const measured::MeasuredRun& m, store::RunRecord& r) {
   std::vector<double> ts, fs;
   ts.reserve(res.trace.size());
   fs.reserve(res.trace.size());
-  for (const TraceSample& p : res.trace) {
+  for (const engine::TraceSample& p : res.trace) {
     ts.push_back(p.t);
     fs.push_back(p.F_d);
   }
-  if (res.status != RunStatus::kOk) return;  // a failed run has no comparable trace
-  const double whole = rmse_window(m.t, m.Fd, ts, fs, 0.0, cfg.total_duration() + 1e-12);
+  if (res.status != engine::RunStatus::kOk) return;  // a failed run has no comparable trace
+  const double whole = measured::rmse_window(m.t, m.Fd, ts, fs, 0.0, cfg.total_duration() + 1e-12);
   if (std::isfinite(whole)) r.rmse = whole;
   double t0 = 0.0;
   for (std::size_t s = 0; s < cfg.stages.size() && s < r.stages.size(); ++s) {
     const double t1 = t0 + cfg.stages[s].duration;
-    const double e = rmse_window(m.t, m.Fd, ts, fs, t0, s + 1 == cfg.stages.size() ? t1 + 1e-12 : t1);
+    const double e = measured::rmse_window(m.t, m.Fd, ts, fs, t0, s + 1 == cfg.stages.size() ? t1 + 1e-12 : t1);
     if (std::isfinite(e)) r.stages[s].rmse = e;
     t0 = t1;
   }
 }
 
 // Keeps every k-th sample so the stored trace has the rate the study asked for.
-std::vector<TracePoint> stored_trace(const std::vector<TraceSample>& trace, std::size_t every) {
-  std::vector<TracePoint> out;
+std::vector<store::TracePoint> stored_trace(const std::vector<engine::TraceSample>& trace, std::size_t every) {
+  std::vector<store::TracePoint> out;
   out.reserve(trace.size() / every + 1);
   for (std::size_t i = 0; i < trace.size(); i += every) {
-    const TraceSample& p = trace[i];
+    const engine::TraceSample& p = trace[i];
     out.push_back({p.t, p.F_d, p.F_f, p.x, p.v, p.s});
   }
   return out;
 }
 
 // The identity columns of a run: parameters, their hash, model and va_over_vd.
-void identify(const StudySpec& spec, const DesignPoint& p, RunRecord& r) {
+void identify(const StudySpec& spec, const DesignPoint& p, store::RunRecord& r) {
   r.params_json = spec.canonical_point_json(p);
-  r.param_hash = param_hash(r.params_json);
+  r.param_hash = store::param_hash(r.params_json);
   if (!p.model.empty()) r.model = p.model;
   r.va_over_vd = p.value("va_over_vd");
 }
@@ -105,9 +105,9 @@ void identify(const StudySpec& spec, const DesignPoint& p, RunRecord& r) {
 // Batched mode (engine/batch.h) runs several fixed-step rk4 runs in SIMD lanes with results
 // bitwise equal to simulate(), so it changes speed only. It applies when the study integrates
 // with rk4 and needs no trace (no stored traces, no measured data to compare with).
-bool batchable(const StudySpec& spec, const MeasuredDataset* measured) {
+bool batchable(const StudySpec& spec, const measured::MeasuredDataset* measured) {
   return !spec.is_analytic() && measured == nullptr && spec.trace_rate() <= 0 &&
-         spec.base_config().integrator.kind == IntegratorKind::kRk4;
+         spec.base_config().integrator.kind == engine::IntegratorKind::kRk4;
 }
 
 // Groups the pending runs into jobs: runs whose configurations can share a batch (same model,
@@ -126,12 +126,12 @@ std::vector<std::vector<std::size_t>> make_jobs(const StudySpec& spec,
   }
   constexpr std::size_t kOpenGroups = 64;
   struct Group {
-    std::vector<SimConfig> cfgs;
+    std::vector<engine::SimConfig> cfgs;
     std::vector<std::size_t> indices;
   };
   std::deque<Group> open;
   for (std::size_t i : pending) {
-    std::optional<SimConfig> cfg;
+    std::optional<engine::SimConfig> cfg;
     try {
       cfg = spec.config_for(spec.point(i));
     } catch (const std::exception&) {  // an invalid point: its own job, compute_run reports it
@@ -143,10 +143,10 @@ std::vector<std::vector<std::size_t>> make_jobs(const StudySpec& spec,
     bool placed = false;
     for (auto it = open.begin(); it != open.end() && !placed; ++it) {
       it->cfgs.push_back(*cfg);
-      if (batch_compatible(it->cfgs)) {
+      if (engine::batch_compatible(it->cfgs)) {
         it->indices.push_back(i);
         placed = true;
-        if (static_cast<int>(it->indices.size()) >= batch_chunk_lanes(cfg->model)) {
+        if (static_cast<int>(it->indices.size()) >= engine::batch_chunk_lanes(cfg->model)) {
           jobs.push_back(std::move(it->indices));
           open.erase(it);
         }
@@ -166,11 +166,11 @@ std::vector<std::vector<std::size_t>> make_jobs(const StudySpec& spec,
 }
 
 // Computes a job of several batchable runs with one simulate_batch call.
-std::vector<RunRecord> compute_batch(const StudySpec& spec, const std::vector<std::size_t>& job,
+std::vector<store::RunRecord> compute_batch(const StudySpec& spec, const std::vector<std::size_t>& job,
                                      const std::string& study_id) {
   const auto t0 = Clock::now();
-  std::vector<RunRecord> out(job.size());
-  std::vector<SimConfig> cfgs;
+  std::vector<store::RunRecord> out(job.size());
+  std::vector<engine::SimConfig> cfgs;
   cfgs.reserve(job.size());
   for (std::size_t k = 0; k < job.size(); ++k) {
     const DesignPoint p = spec.point(job[k]);
@@ -179,7 +179,7 @@ std::vector<RunRecord> compute_batch(const StudySpec& spec, const std::vector<st
     identify(spec, p, out[k]);
     cfgs.push_back(spec.config_for(p));
   }
-  const std::vector<SimResult> res = simulate_batch(cfgs);
+  const std::vector<engine::SimResult> res = engine::simulate_batch(cfgs);
   const double each = seconds_since(t0) / static_cast<double>(job.size());
   for (std::size_t k = 0; k < job.size(); ++k) {
     fill_from_result(res[k], out[k]);
@@ -200,10 +200,10 @@ const char* to_string(RunOutcome o) noexcept {
   return "?";
 }
 
-RunRecord compute_run(const StudySpec& spec, std::size_t design_index, const std::string& study_id,
-                      const MeasuredDataset* measured) {
+store::RunRecord compute_run(const StudySpec& spec, std::size_t design_index, const std::string& study_id,
+                      const measured::MeasuredDataset* measured) {
   const auto t0 = Clock::now();
-  RunRecord r;
+  store::RunRecord r;
   r.study_id = study_id;
   r.design_index = static_cast<std::int64_t>(design_index);
   try {
@@ -211,14 +211,14 @@ RunRecord compute_run(const StudySpec& spec, std::size_t design_index, const std
     identify(spec, p, r);
     if (spec.is_analytic()) {
       const double y = spec.analytic_value(p);
-      StageMetricsRecord m;
+      store::StageMetricsRecord m;
       m.stage = 1;
       m.amplitude = m.mean_force = y;
       m.amplitude_raw = m.mean_friction = m.mean_period = std::nan("");
       r.stages.push_back(m);
     } else {
-      SimConfig cfg = spec.config_for(p);  // throws InvalidParameter for a bad point
-      const MeasuredRun* match = find_match(measured, cfg);
+      engine::SimConfig cfg = spec.config_for(p);  // throws InvalidParameter for a bad point
+      const measured::MeasuredRun* match = find_match(measured, cfg);
       const double want_rate = spec.trace_rate();
       std::size_t every = 1;
       if (match != nullptr) {
@@ -230,7 +230,7 @@ RunRecord compute_run(const StudySpec& spec, std::size_t design_index, const std
           cfg.trace.rate = need;
         }
       }
-      const SimResult res = simulate(cfg);  // never throws for bad input
+      const engine::SimResult res = engine::simulate(cfg);  // never throws for bad input
       fill_from_result(res, r);
       if (match != nullptr) add_rmse(cfg, res, *match, r);
       if (want_rate > 0) r.trace = stored_trace(res.trace, every);
@@ -241,17 +241,17 @@ RunRecord compute_run(const StudySpec& spec, std::size_t design_index, const std
     r.stages.clear();
     r.trace.clear();
     if (r.params_json.empty()) r.params_json = "{}";
-    if (r.param_hash.empty()) r.param_hash = param_hash(r.params_json);
+    if (r.param_hash.empty()) r.param_hash = store::param_hash(r.params_json);
   }
   r.wall_time_s = seconds_since(t0);
   return r;
 }
 
-StudyRecord create_or_find_study(Store& store, const StudySpec& spec) {
+store::StudyRecord create_or_find_study(store::Store& store, const StudySpec& spec) {
   const std::string canonical = spec.canonical_json();
-  const std::string hash = param_hash(canonical);
+  const std::string hash = store::param_hash(canonical);
   if (auto existing = store.find_resumable(spec.name(), hash)) return *existing;
-  NewStudy s;
+  store::NewStudy s;
   s.name = spec.name();
   s.spec_json = canonical;
   s.spec_hash = hash;
@@ -271,7 +271,7 @@ RunSummary run_study(const std::filesystem::path& db, const std::string& study_i
       // Never create a database just to record a failure (e.g. a mistyped path).
       std::error_code ec;
       if (std::filesystem::is_regular_file(db, ec))
-        Store::open(db).set_study_state(study_id, StudyState::kFailed, why);
+        store::Store::open(db).set_study_state(study_id, store::StudyState::kFailed, why);
     } catch (const std::exception&) {  // the store itself is the problem; nothing more to do
     }
     sum.wall_s = seconds_since(t_start);
@@ -281,7 +281,7 @@ RunSummary run_study(const std::filesystem::path& db, const std::string& study_i
   std::vector<std::size_t> pending;
   Progress progress;
   progress.total = sum.total;
-  std::optional<MeasuredDataset> measured;
+  std::optional<measured::MeasuredDataset> measured;
   {
     // The study must already be in the database: a missing file is an error, not a new store.
     std::error_code ec;
@@ -289,7 +289,7 @@ RunSummary run_study(const std::filesystem::path& db, const std::string& study_i
       return fail("no database at " + db.string() + " (create the study first)");
   }
   try {
-    Store store = Store::open(db);
+    store::Store store = store::Store::open(db);
     const auto study = store.get_study(study_id);
     if (!study) return fail("unknown study '" + study_id + "' in " + db.string());
     if (study->total_runs != sum.total)
@@ -299,8 +299,8 @@ RunSummary run_study(const std::filesystem::path& db, const std::string& study_i
       std::filesystem::path path = *spec.measured();
       if (path.is_relative()) path = opt.spec_dir / path;
       try {
-        measured = load_measured(path);
-      } catch (const MeasuredError& e) {
+        measured = measured::load_measured(path);
+      } catch (const measured::MeasuredError& e) {
         return fail(std::string("measured data: ") + e.what());
       }
     }
@@ -310,18 +310,18 @@ RunSummary run_study(const std::filesystem::path& db, const std::string& study_i
       if (i >= 0 && static_cast<std::size_t>(i) < have.size()) have[i] = true;
     for (std::size_t i = 0; i < have.size(); ++i)
       if (!have[i]) pending.push_back(i);
-    const RunCounts counts = store.count_runs(study_id);
+    const store::RunCounts counts = store.count_runs(study_id);
     progress.done = counts.done;
     progress.failed = counts.failed;
     sum.skipped = counts.done;
-    store.set_study_state(study_id, StudyState::kRunning);
+    store.set_study_state(study_id, store::StudyState::kRunning);
   } catch (const std::exception& e) {
     return fail(e.what());
   }
 
-  std::optional<RunWriter> writer;
+  std::optional<store::RunWriter> writer;
   try {
-    writer.emplace(RunWriter::open(db, opt.writer));
+    writer.emplace(store::RunWriter::open(db, opt.writer));
   } catch (const std::exception& e) {
     return fail(e.what());
   }
@@ -329,7 +329,7 @@ RunSummary run_study(const std::filesystem::path& db, const std::string& study_i
   // Workers -> queue -> this thread (the single writer).
   std::mutex mu;
   std::condition_variable cv;
-  std::deque<RunRecord> queue;
+  std::deque<store::RunRecord> queue;
   bool workers_done = false;
   std::atomic<bool> abort{false};  // set by this thread when the store fails
   const auto stop_requested = [&] {
@@ -337,7 +337,7 @@ RunSummary run_study(const std::filesystem::path& db, const std::string& study_i
            (opt.cancel != nullptr && opt.cancel->load(std::memory_order_relaxed)) ||
            (opt.stop != nullptr && opt.stop->load(std::memory_order_relaxed));
   };
-  const MeasuredDataset* mdata = measured ? &*measured : nullptr;
+  const measured::MeasuredDataset* mdata = measured ? &*measured : nullptr;
 
   std::atomic<std::int64_t> batched_runs{0};
   const std::vector<std::vector<std::size_t>> jobs =
@@ -349,7 +349,7 @@ RunSummary run_study(const std::filesystem::path& db, const std::string& study_i
     for (long k = 0; k < n; ++k) {
       if (stop_requested()) continue;
       const std::vector<std::size_t>& job = jobs[k];
-      std::vector<RunRecord> recs;
+      std::vector<store::RunRecord> recs;
       // No exception may leave the region: compute_run never throws, and a batch that throws
       // (it cannot for configurations make_jobs accepted) falls back to one run at a time.
       try {
@@ -365,11 +365,11 @@ RunSummary run_study(const std::filesystem::path& db, const std::string& study_i
           try {
             recs.push_back(compute_run(spec, i, study_id, mdata));
           } catch (...) {
-            RunRecord rec;
+            store::RunRecord rec;
             rec.study_id = study_id;
             rec.design_index = static_cast<std::int64_t>(i);
             rec.params_json = "{}";
-            rec.param_hash = param_hash(rec.params_json);
+            rec.param_hash = store::param_hash(rec.params_json);
             rec.status = "invalid";
             rec.error = "internal error while computing the run";
             recs.push_back(std::move(rec));
@@ -377,7 +377,7 @@ RunSummary run_study(const std::filesystem::path& db, const std::string& study_i
         }
       {
         std::lock_guard lock(mu);
-        for (RunRecord& rec : recs) queue.push_back(std::move(rec));
+        for (store::RunRecord& rec : recs) queue.push_back(std::move(rec));
       }
       cv.notify_one();
     }
@@ -406,7 +406,7 @@ RunSummary run_study(const std::filesystem::path& db, const std::string& study_i
   };
   const auto wait_slice = std::max(std::chrono::milliseconds(10), opt.writer.max_delay / 2);
   while (true) {
-    std::deque<RunRecord> batch;
+    std::deque<store::RunRecord> batch;
     bool finished;
     {
       std::unique_lock lock(mu);
@@ -417,7 +417,7 @@ RunSummary run_study(const std::filesystem::path& db, const std::string& study_i
     if (store_error.empty()) {
       const auto ts = Clock::now();
       try {
-        for (RunRecord& rec : batch) {
+        for (store::RunRecord& rec : batch) {
           const bool failed = rec.status != "ok";
           sum.compute_s += rec.wall_time_s;
           const std::size_t before = writer->buffered();
@@ -449,15 +449,15 @@ RunSummary run_study(const std::filesystem::path& db, const std::string& study_i
   if (!store_error.empty()) return fail("store: " + store_error);
 
   try {
-    Store store = Store::open(db);
-    const RunCounts counts = store.count_runs(study_id);
+    store::Store store = store::Store::open(db);
+    const store::RunCounts counts = store.count_runs(study_id);
     progress.done = counts.done;
     progress.failed = counts.failed;
     if (counts.done >= counts.total) {
-      store.set_study_state(study_id, StudyState::kSucceeded);
+      store.set_study_state(study_id, store::StudyState::kSucceeded);
       sum.outcome = RunOutcome::kCompleted;
     } else if (opt.cancel != nullptr && opt.cancel->load()) {
-      store.set_study_state(study_id, StudyState::kCancelled);
+      store.set_study_state(study_id, store::StudyState::kCancelled);
       sum.outcome = RunOutcome::kCancelled;
     } else if (opt.stop != nullptr && opt.stop->load()) {
       sum.outcome = RunOutcome::kStopped;  // left running: resumes on restart

@@ -17,7 +17,7 @@
 #include <boost/random/sobol.hpp>
 #include <boost/random/uniform_int_distribution.hpp>
 
-namespace stickslip::sensitivity {
+namespace stickslip::studies::sensitivity {
 namespace {
 
 // ---------------------------------------------------------------------------------------------
@@ -483,4 +483,4 @@ SobolIndices sobol_g_exact(const std::vector<double>& a) {
   return out;
 }
 
-}  // namespace stickslip::sensitivity
+}  // namespace stickslip::studies::sensitivity

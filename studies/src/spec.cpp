@@ -74,9 +74,9 @@ std::optional<std::uint64_t> count_at(const json& obj, std::string_view key) {
 
 bool is_engine_model(std::string_view name) {
   try {
-    model_from_string(name);
+    engine::model_from_string(name);
     return true;
-  } catch (const InvalidParameter&) {
+  } catch (const engine::InvalidParameter&) {
     return false;
   }
 }
@@ -114,18 +114,18 @@ std::string explain(const std::exception& e) {
 
 [[noreturn]] void rethrow_as_invalid(const std::string& message) {
   const auto parts = split_invalid(message);
-  if (parts.field.empty()) throw InvalidParameter("config", std::string("invalid"), message);
+  if (parts.field.empty()) throw engine::InvalidParameter("config", std::string("invalid"), message);
   char* end = nullptr;
   const double v = std::strtod(parts.value.c_str(), &end);
   if (end != nullptr && *end == '\0' && !parts.value.empty())
-    throw InvalidParameter(parts.field, v, parts.why);
-  throw InvalidParameter(parts.field, parts.value, parts.why);
+    throw engine::InvalidParameter(parts.field, v, parts.why);
+  throw engine::InvalidParameter(parts.field, parts.value, parts.why);
 }
 
 // ---------------------------------------------------------------- schema facts
 
-const SchemaValidator& study_validator() {
-  static const SchemaValidator validator(study_schema());
+const common::SchemaValidator& study_validator() {
+  static const common::SchemaValidator validator(study_schema());
   return validator;
 }
 
@@ -228,17 +228,17 @@ double linspace_at(double start, double stop, std::size_t count, std::size_t k) 
 
 class Errors {
  public:
-  explicit Errors(std::vector<SpecError>* out) : out_(out) {}
+  explicit Errors(std::vector<common::SpecError>* out) : out_(out) {}
   // Adds an error unless one is already reported at the same pointer.
   void add(std::string pointer, std::string message) {
     const bool seen = std::any_of(out_->begin(), out_->end(),
-                                  [&](const SpecError& e) { return e.pointer == pointer; });
+                                  [&](const common::SpecError& e) { return e.pointer == pointer; });
     if (!seen) out_->push_back({std::move(pointer), std::move(message)});
   }
   bool empty() const noexcept { return out_->empty(); }
 
  private:
-  std::vector<SpecError>* out_;
+  std::vector<common::SpecError>* out_;
 };
 
 const json* find_pointer(const json& doc, const std::string& pointer) {
@@ -251,10 +251,10 @@ const json* find_pointer(const json& doc, const std::string& pointer) {
 }
 
 // Makes the schema's generic messages specific where the study knows more.
-void polish_schema_errors(std::vector<SpecError>* errors, const json& doc) {
+void polish_schema_errors(std::vector<common::SpecError>* errors, const json& doc) {
   static const std::regex kAxis(R"(/design/axes/([0-9]+))");
   static const std::regex kAxisValues(R"(/design/axes/([0-9]+)/values)");
-  std::vector<SpecError> out;
+  std::vector<common::SpecError> out;
   for (auto e : *errors) {
     const json* v = find_pointer(doc, e.pointer);
     if (std::regex_match(e.pointer, kAxisValues)) {
@@ -279,7 +279,7 @@ void polish_schema_errors(std::vector<SpecError>* errors, const json& doc) {
 
 class SpecBuilder {
  public:
-  SpecBuilder(const json& doc, const Limits& limits, std::vector<SpecError>* errors)
+  SpecBuilder(const json& doc, const Limits& limits, std::vector<common::SpecError>* errors)
       : doc_(doc), errors_(errors) {
     spec_.limits_ = limits;
   }
@@ -288,7 +288,7 @@ class SpecBuilder {
 
  private:
   const Limits& limits() const { return spec_.limits_; }
-  SimConfig& cfg() { return spec_.base_; }
+  engine::SimConfig& cfg() { return spec_.base_; }
   bool analytic() const { return !spec_.analytic_.empty(); }
 
   void read_base();
@@ -361,7 +361,7 @@ void SpecBuilder::read_base() {
     read_analytic_base(*base);
     return;
   }
-  cfg().model = is_engine_model(model) ? model_from_string(model) : ModelKind::kLuGre;
+  cfg().model = is_engine_model(model) ? engine::model_from_string(model) : engine::ModelKind::kLuGre;
   read_engine_base(*base);
 }
 
@@ -386,8 +386,8 @@ void SpecBuilder::read_engine_base(const json& base) {
     const auto v = number_at(base, name);
     if (!v) continue;
     try {
-      set_parameter(cfg(), name, *v);
-    } catch (const InvalidParameter& e) {
+      engine::set_parameter(cfg(), name, *v);
+    } catch (const engine::InvalidParameter& e) {
       errors_.add("/base/" + name, explain(e));
     }
   }
@@ -396,8 +396,8 @@ void SpecBuilder::read_engine_base(const json& base) {
       errors_.add("/base/F_slip", "is an alias of F_C; give only one of them");
     } else {
       try {
-        set_parameter(cfg(), "F_slip", *v);
-      } catch (const InvalidParameter& e) {
+        engine::set_parameter(cfg(), "F_slip", *v);
+      } catch (const engine::InvalidParameter& e) {
         errors_.add("/base/F_slip", explain(e));
       }
     }
@@ -419,7 +419,7 @@ void SpecBuilder::read_stages() {
   if (stages != nullptr && stages->is_array() && !stages->empty()) {  // else default / schema
     cfg().stages.clear();
     for (const auto& s : *stages) {
-      Stage st;
+      engine::Stage st;
       st.duration = number_at(s, "duration").value_or(10.0);
       st.v_a = number_at(s, "v_a").value_or(0.0);
       st.f = number_at(s, "f").value_or(1500.0);
@@ -434,8 +434,8 @@ void SpecBuilder::read_integrator() {
   auto& opt = cfg().integrator;
   if (auto kind = string_at(*in, "kind")) {
     try {
-      opt.kind = integrator_from_string(*kind);
-    } catch (const InvalidParameter&) {  // reported by the schema
+      opt.kind = engine::integrator_from_string(*kind);
+    } catch (const engine::InvalidParameter&) {  // reported by the schema
     }
   }
   opt.dt = number_at(*in, "dt").value_or(opt.dt);
@@ -462,8 +462,8 @@ void SpecBuilder::apply_base_shorthands() {
       continue;
     }
     try {
-      set_parameter(cfg(), name, *v);
-    } catch (const InvalidParameter& e) {
+      engine::set_parameter(cfg(), name, *v);
+    } catch (const engine::InvalidParameter& e) {
       errors_.add(ptr, explain(e));
     }
   }
@@ -477,7 +477,7 @@ void SpecBuilder::check_run_limits() {
                                fmt(limits().max_duration) + " s");
   const json* base = member(doc_, "base");
   for (const char* name : {"dt", "dt_max"}) {
-    const double v = get_parameter(cfg(), name);
+    const double v = engine::get_parameter(cfg(), name);
     if (v >= limits().min_dt && v <= limits().max_dt) continue;
     const bool in_base = base != nullptr && member(*base, name) != nullptr;
     errors_.add((in_base ? "/base/" : "/integrator/") + std::string(name),
@@ -516,9 +516,9 @@ bool SpecBuilder::check_name(const std::string& name, const std::string& ptr, bo
   }
   if (name == "va_over_vd") return true;
   try {
-    get_parameter(cfg(), name);
+    engine::get_parameter(cfg(), name);
     return true;
-  } catch (const InvalidParameter&) {
+  } catch (const engine::InvalidParameter&) {
     std::string msg = "unknown parameter " + in_quotes(name);
     if (name.rfind("stage", 0) == 0)
       msg += " (the runs have " + std::to_string(cfg().stages.size()) + " stages)";
@@ -532,10 +532,10 @@ std::optional<std::string> SpecBuilder::value_problem(const std::string& name, d
   if (analytic()) return std::nullopt;
   if (name == "va_over_vd")
     return v >= 0 ? std::nullopt : std::optional<std::string>("must be >= 0, got " + fmt(v));
-  SimConfig c = spec_.base_;
+  engine::SimConfig c = spec_.base_;
   try {
-    set_parameter(c, name, v);
-  } catch (const InvalidParameter& e) {
+    engine::set_parameter(c, name, v);
+  } catch (const engine::InvalidParameter& e) {
     return explain(e);
   }
   if ((name == "dt" || name == "dt_max") && (v < limits().min_dt || v > limits().max_dt))
@@ -618,7 +618,7 @@ void SpecBuilder::read_grid(const json& design) {
   if (axes == nullptr || !axes->is_array()) return;
   std::vector<std::string> names, pointers;
   for (std::size_t i = 0; i < axes->size(); ++i) {
-    const std::string ptr = pointer_append("/design/axes", i);
+    const std::string ptr = common::pointer_append("/design/axes", i);
     if (const auto name = string_at((*axes)[i], "name")) {
       names.push_back(canonical_name(*name));
       pointers.push_back(ptr + "/name");
@@ -653,7 +653,7 @@ bool SpecBuilder::read_axis_values(const json& values, const std::string& ptr, A
   axis->kind = Axis::Kind::kValues;
   for (std::size_t k = 0; k < values.size(); ++k) {
     const json& v = values[k];
-    const std::string vptr = pointer_append(ptr, k);
+    const std::string vptr = common::pointer_append(ptr, k);
     if (axis->is_model()) {
       if (v.is_string() && is_engine_model(v.get<std::string>())) {
         axis->models.push_back(v.get<std::string>());
@@ -701,10 +701,10 @@ bool SpecBuilder::read_axis_spacing(const json& a, const std::string& ptr, Axis*
     const double e = end == 0 ? axis->start : axis->stop;
     const double v = log ? std::pow(10.0, e) : e;
     if (log && !(std::isfinite(v) && v > 0)) {
-      errors_.add(pointer_append(sptr, end), "10^" + fmt(e) + " is not a finite positive number");
+      errors_.add(common::pointer_append(sptr, end), "10^" + fmt(e) + " is not a finite positive number");
       ok = false;
     } else if (end == 0 || axis->count > 1) {
-      ok = check_value(axis->name, v, pointer_append(sptr, end)) && ok;
+      ok = check_value(axis->name, v, common::pointer_append(sptr, end)) && ok;
     }
   }
   return ok;
@@ -715,7 +715,7 @@ void SpecBuilder::read_list(const json& design) {
   const json* points = member(design, "points");
   if (points == nullptr || !points->is_array()) return;
   for (std::size_t i = 0; i < points->size(); ++i) {
-    if (auto p = read_point((*points)[i], pointer_append("/design/points", i))) {
+    if (auto p = read_point((*points)[i], common::pointer_append("/design/points", i))) {
       if (p->model) design_models_.insert(*p->model);
       for (const auto& [name, v] : p->values)
         if (std::find(varied_.begin(), varied_.end(), name) == varied_.end())
@@ -731,7 +731,7 @@ std::optional<ListPoint> SpecBuilder::read_point(const json& p, const std::strin
   bool ok = true;
   std::vector<std::string> names, pointers;
   for (const auto& [key, value] : p.items()) {
-    const std::string kptr = pointer_append(ptr, key);
+    const std::string kptr = common::pointer_append(ptr, key);
     if (key == "model" && !analytic()) {
       if (value.is_string() && is_engine_model(value.get<std::string>())) {
         point.model = value.get<std::string>();
@@ -795,7 +795,7 @@ void SpecBuilder::read_sampled(const json& design, DesignType type) {
   } else if (ranges->is_array()) {
     std::vector<std::string> names, pointers;
     for (std::size_t i = 0; i < ranges->size(); ++i) {
-      const std::string ptr = pointer_append("/design/ranges", i);
+      const std::string ptr = common::pointer_append("/design/ranges", i);
       if (const auto name = string_at((*ranges)[i], "name")) {
         names.push_back(canonical_name(*name));
         pointers.push_back(ptr + "/name");
@@ -842,8 +842,8 @@ void SpecBuilder::check_base_valid() {
            (field == "F_S" && std::find(varied_.begin(), varied_.end(), "F_C") != varied_.end());
   };
   for (const auto& model : models) {
-    SimConfig c = cfg();
-    c.model = model_from_string(model);
+    engine::SimConfig c = cfg();
+    c.model = engine::model_from_string(model);
     std::vector<std::string> messages;
     if (c.IsValid(&messages)) continue;
     for (const auto& raw : messages) {
@@ -981,9 +981,9 @@ json SpecBuilder::canonical() const {
     out["base"] = std::move(base);
     return out;
   }
-  const SimConfig& c = spec_.base_;
+  const engine::SimConfig& c = spec_.base_;
   json base = {{"model", to_string(c.model)}};
-  for (const auto& name : engine_base_fields()) base[name] = get_parameter(c, name);
+  for (const auto& name : engine_base_fields()) base[name] = engine::get_parameter(c, name);
   out["base"] = std::move(base);
   json stages = json::array();
   for (const auto& s : c.stages)
@@ -1117,16 +1117,16 @@ DesignPoint StudySpec::point(std::size_t index) const {
 }
 
 namespace {
-bool uses_static_friction(ModelKind m) {
-  return m == ModelKind::kLuGre || m == ModelKind::kKarnopp;
+bool uses_static_friction(engine::ModelKind m) {
+  return m == engine::ModelKind::kLuGre || m == engine::ModelKind::kKarnopp;
 }
 }  // namespace
 
-SimConfig StudySpec::unchecked_config(const DesignPoint& point) const {
+engine::SimConfig StudySpec::unchecked_config(const DesignPoint& point) const {
   if (is_analytic())
-    throw InvalidParameter("model", analytic_, "is an analytic test model, not a simulation");
-  SimConfig c = base_;
-  c.model = model_from_string(point.model);
+    throw engine::InvalidParameter("model", analytic_, "is an analytic test model, not a simulation");
+  engine::SimConfig c = base_;
+  c.model = engine::model_from_string(point.model);
   std::optional<double> ratio, v_a;
   for (const auto& [name, v] : point.values) {
     if (name == "va_over_vd")
@@ -1134,36 +1134,36 @@ SimConfig StudySpec::unchecked_config(const DesignPoint& point) const {
     else if (name == "v_a")
       v_a = v;  // applied last; derived from va_over_vd when that is present
     else
-      set_parameter(c, name, v);
+      engine::set_parameter(c, name, v);
   }
   if (ratio) {
     if (!(std::isfinite(*ratio) && *ratio >= 0))
-      throw InvalidParameter("va_over_vd", *ratio, "must be a finite number >= 0");
-    set_parameter(c, "v_a", *ratio * c.drive.v_d);
+      throw engine::InvalidParameter("va_over_vd", *ratio, "must be a finite number >= 0");
+    engine::set_parameter(c, "v_a", *ratio * c.drive.v_d);
   } else if (v_a) {
-    set_parameter(c, "v_a", *v_a);
+    engine::set_parameter(c, "v_a", *v_a);
   }
   return c;
 }
 
 bool StudySpec::raises_F_S(const DesignPoint& point) const {
   if (is_analytic() || fs_below_fc_ != FsBelowFc::kRaiseToFc) return false;
-  const SimConfig c = unchecked_config(point);
+  const engine::SimConfig c = unchecked_config(point);
   return uses_static_friction(c.model) && c.friction.F_S < c.friction.F_C;
 }
 
-SimConfig StudySpec::config_for(const DesignPoint& point) const {
-  SimConfig c = unchecked_config(point);
+engine::SimConfig StudySpec::config_for(const DesignPoint& point) const {
+  engine::SimConfig c = unchecked_config(point);
   if (fs_below_fc_ == FsBelowFc::kRaiseToFc && uses_static_friction(c.model) &&
       c.friction.F_S < c.friction.F_C)
     c.friction.F_S = c.friction.F_C;
   if (c.total_duration() > limits_.max_duration)
-    throw InvalidParameter("duration", c.total_duration(),
+    throw engine::InvalidParameter("duration", c.total_duration(),
                            "exceeds the limit of " + fmt(limits_.max_duration) + " s");
   for (const auto& [name, v] : {std::pair<const char*, double>{"dt", c.integrator.dt},
                                 {"dt_max", c.integrator.dt_max}})
     if (v < limits_.min_dt || v > limits_.max_dt)
-      throw InvalidParameter(name, v,
+      throw engine::InvalidParameter(name, v,
                              "must be within [" + fmt(limits_.min_dt) + ", " +
                                  fmt(limits_.max_dt) + "] s");
   std::vector<std::string> messages;
@@ -1195,7 +1195,7 @@ double StudySpec::analytic_value(const DesignPoint& point) const {
 
 ParseResult parse_study(std::string_view json_text, const Limits& limits) {
   ParseResult result;
-  const auto doc = parse_json(json_text, &result.errors);
+  const auto doc = common::parse_json(json_text, &result.errors);
   if (!doc) return result;
   auto schema_errors = study_validator().validate(*doc);
   polish_schema_errors(&schema_errors, *doc);

@@ -1,13 +1,8 @@
-// The client side of the server commands without a server: URL parsing, readable problem
-// messages with field paths, and the map JSON round trip that lets `map --server` print the
-// same table as the local `map --db`.
+// The client side of the server commands without a server: URL parsing and readable problem
+// messages with field paths.
 #include "stickslip/client/remote.h"
 
 #include <gtest/gtest.h>
-
-#include <cmath>
-
-#include "stickslip/studies/map.h"
 
 namespace stickslip::client {
 namespace {
@@ -64,50 +59,6 @@ TEST(DescribeError, ListsEveryFieldOfAProblem) {
   plain.status = 502;
   plain.body = "bad gateway";
   EXPECT_EQ(describe_error(plain), "server: HTTP 502: bad gateway");
-}
-
-TEST(MapFromJson, RoundTripsTheStudiesMapSoTablesAreIdentical) {
-  studies::StudyMap m;
-  m.study_id = "st-1";
-  m.study_name = "n";
-  m.state = "running";
-  m.models = {"dahl", "lugre"};
-  m.key_names = {"va_over_vd"};
-  m.stages = 2;
-  m.missing = 1;
-  m.failed = 1;
-  const double nan = std::nan("");
-  for (int k = 0; k < 2; ++k) {
-    studies::MapRow row;
-    row.key = {{"va_over_vd", 0.5 * k}};
-    studies::MapCell ok;
-    ok.state = studies::CellState::kOk;
-    ok.design_index = 2 * k;
-    ok.status = "ok";
-    ok.amplitude = {2.0, k == 0 ? nan : 0.5};
-    ok.mean_force = {10.0, 11.0};
-    ok.ratio = k == 0 ? std::nullopt : std::optional<double>(0.25);
-    ok.stage_rmse = {std::nullopt, 0.1};
-    studies::MapCell other;
-    other.design_index = 2 * k + 1;
-    if (k == 1) {
-      other.state = studies::CellState::kFailed;
-      other.status = "diverged";
-      other.error = "x = inf";
-      other.amplitude = {nan, nan};
-      other.mean_force = {nan, nan};
-      other.stage_rmse = {std::nullopt, std::nullopt};
-    }
-    row.cells = {ok, other};
-    m.rows.push_back(row);
-  }
-  const json j = studies::map_to_json(m);
-  const studies::StudyMap back = map_from_json(j);
-  EXPECT_EQ(studies::map_to_json(back), j);
-  for (const auto view : {studies::MapView::kAmplitude, studies::MapView::kMeanForce,
-                          studies::MapView::kRmse})
-    EXPECT_EQ(studies::map_to_table(back, view), studies::map_to_table(m, view));
-  EXPECT_EQ(studies::map_to_csv(back), studies::map_to_csv(m));
 }
 
 }  // namespace

@@ -18,14 +18,14 @@
 #include <string>
 #include <thread>
 
-#include "stickslip/studies/store.h"
+#include "stickslip/store/store.h"
 #include "support/cli_process.h"
 
 namespace {
 
 namespace fs = std::filesystem;
 using namespace std::chrono_literals;
-using stickslip::studies::Store;
+using stickslip::store::Store;
 
 const std::string kBinary = std::string(STICKSLIP_BINARY_DIR) + "/client/stickslip";
 

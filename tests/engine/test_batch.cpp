@@ -12,7 +12,7 @@
 #include "stickslip/engine/exp.h"
 #include "stickslip/engine/simulate.h"
 
-using namespace stickslip;
+using namespace stickslip::engine;
 
 namespace {
 

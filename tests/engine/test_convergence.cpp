@@ -6,7 +6,7 @@
 
 #include "stickslip/engine/simulate.h"
 
-using namespace stickslip;
+using namespace stickslip::engine;
 
 namespace {
 // Final drive force k_d (v_d t - x) error expressed through x_end [N].

@@ -4,7 +4,7 @@
 
 #include "stickslip/engine/simulate.h"
 
-using namespace stickslip;
+using namespace stickslip::engine;
 
 // rk4_event at dt = 1e-7 s on the Karnopp still base. The switch locator's tolerance reaches
 // 1e-15 s there, so a slip -> stick switch landed exactly on v_r = DV; with events firing on

@@ -7,7 +7,7 @@
 #include "stickslip/engine/params.h"
 #include "stickslip/engine/simulate.h"
 
-using namespace stickslip;
+using namespace stickslip::engine;
 
 namespace {
 std::string set_error(const char* name, double v) {

@@ -7,7 +7,7 @@
 #include "stickslip/engine/metrics.h"
 #include "stickslip/engine/simulate.h"
 
-using namespace stickslip;
+using namespace stickslip::engine;
 
 namespace {
 

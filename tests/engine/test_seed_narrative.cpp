@@ -7,7 +7,7 @@
 
 #include "stickslip/engine/simulate.h"
 
-using namespace stickslip;
+using namespace stickslip::engine;
 
 namespace {
 const SimResult& run(ModelKind m, double v_a_mm_s) {

@@ -10,7 +10,7 @@
 #include <thread>
 
 #include "stickslip/studies/map.h"
-#include "stickslip/studies/store.h"
+#include "stickslip/store/store.h"
 #include "test_support.h"
 
 namespace stickslip::server {
@@ -50,7 +50,7 @@ class ApiTest : public ::testing::Test {
     return out;
   }
   std::size_t stored_studies() {
-    auto store = studies::Store::open(dir_ / "api.db");
+    auto store = store::Store::open(dir_ / "api.db");
     return store.list_studies(1000).size();
   }
 
@@ -69,11 +69,11 @@ TEST_F(ApiTest, CreateReturns202WithLocationAndTheQueuedStudy) {
   EXPECT_EQ(s["progress"], json({{"total", 4}, {"done", 0}, {"ok", 0}, {"failed", 0}}));
   EXPECT_TRUE(s["started_at"].is_null());
 
-  auto store = studies::Store::open(dir_ / "api.db");
+  auto store = store::Store::open(dir_ / "api.db");
   const auto rec = store.get_study(id);
   ASSERT_TRUE(rec);
   EXPECT_EQ(rec->total_runs, 4);
-  EXPECT_EQ(rec->state, studies::StudyState::kQueued);
+  EXPECT_EQ(rec->state, store::StudyState::kQueued);
 
   const Response g = api.handle(get("/v1/studies/" + id));
   ASSERT_EQ(g.status, 200);
@@ -275,13 +275,13 @@ TEST_F(ApiTest, ListPaginatesInCreationOrder) {
 }
 
 /// A run record as the runner would store it.
-studies::RunRecord make_run(const std::string& study, std::int64_t index, const std::string& model,
+store::RunRecord make_run(const std::string& study, std::int64_t index, const std::string& model,
                             double ratio, const std::string& status = "ok") {
-  studies::RunRecord r;
+  store::RunRecord r;
   r.study_id = study;
   r.design_index = index;
   r.params_json = json({{"model", model}, {"va_over_vd", ratio}}).dump();
-  r.param_hash = studies::param_hash(r.params_json);
+  r.param_hash = store::param_hash(r.params_json);
   r.model = model;
   r.va_over_vd = ratio;
   r.status = status;
@@ -290,7 +290,7 @@ studies::RunRecord make_run(const std::string& study, std::int64_t index, const 
   r.steps = 100;
   if (status == "ok") {
     for (int s = 1; s <= 2; ++s) {
-      studies::StageMetricsRecord m;
+      store::StageMetricsRecord m;
       m.stage = s;
       m.t_start = 0.5 * (s - 1);
       m.t_end = 0.5 * s;
@@ -306,7 +306,7 @@ studies::RunRecord make_run(const std::string& study, std::int64_t index, const 
 
 // Runs 0 (dahl, ok), 1 (dahl, diverged) and 3 (lugre, ok) of a tiny_study(); run 2 missing.
 void store_three_runs(const std::filesystem::path& db, const std::string& id) {
-  auto writer = studies::RunWriter::open(db);
+  auto writer = store::RunWriter::open(db);
   writer.add(make_run(id, 0, "dahl", 0));
   writer.add(make_run(id, 1, "dahl", 2, "diverged"));
   writer.add(make_run(id, 3, "lugre", 2));
@@ -355,7 +355,7 @@ TEST_F(ApiTest, MapIsTheStudiesMapAndMarksMissingAndFailedCells) {
   ASSERT_EQ(r.status, 200) << r.body;
   const json m = body_json(r);
   // Exactly what `stickslip map --format json` prints for the same store.
-  auto store = studies::Store::open(dir_ / "api.db");
+  auto store = store::Store::open(dir_ / "api.db");
   EXPECT_EQ(m, studies::map_to_json(studies::build_map(store, id)));
   EXPECT_EQ(m["models"], json({"dahl", "lugre"}));
   EXPECT_EQ(m["missing"], 1);
@@ -378,7 +378,7 @@ TEST_F(ApiTest, CancelKeepsFinishedRunsAndIsIdempotent) {
   Api api(options());
   const std::string id = body_json(api.handle(post_json("/v1/studies", tiny_study())))["id"];
   {
-    auto writer = studies::RunWriter::open(dir_ / "api.db");
+    auto writer = store::RunWriter::open(dir_ / "api.db");
     writer.add(make_run(id, 0, "dahl", 0));
     writer.flush();
   }
@@ -389,7 +389,7 @@ TEST_F(ApiTest, CancelKeepsFinishedRunsAndIsIdempotent) {
   EXPECT_EQ(api.handle(post_json("/v1/studies/" + id + ":cancel", "")).status, 200);
 
   const std::string id2 = body_json(api.handle(post_json("/v1/studies", tiny_study())))["id"];
-  studies::Store::open(dir_ / "api.db").set_study_state(id2, studies::StudyState::kSucceeded);
+  store::Store::open(dir_ / "api.db").set_study_state(id2, store::StudyState::kSucceeded);
   expect_problem(api.handle(post_json("/v1/studies/" + id2 + ":cancel", "")), 409);
 }
 
@@ -400,7 +400,7 @@ TEST_F(ApiTest, StudyCacheIsShortLivedAndForgetsACancelledStudy) {
   const std::string id = body_json(api.handle(post_json("/v1/studies", tiny_study())))["id"];
   EXPECT_EQ(body_json(api.handle(get("/v1/studies/" + id)))["progress"]["done"], 0);
   {
-    auto writer = studies::RunWriter::open(dir_ / "api.db");
+    auto writer = store::RunWriter::open(dir_ / "api.db");
     writer.add(make_run(id, 0, "dahl", 0));
     writer.flush();
   }
@@ -440,7 +440,7 @@ TEST_F(ApiTest, StudyETagRevalidatesWith304AndChangesWithTheStudy) {
   EXPECT_EQ(api.responses(3), 4u);
   // A changed study: the old tag no longer matches; a new body under a new tag.
   {
-    auto writer = studies::RunWriter::open(dir_ / "api.db");
+    auto writer = store::RunWriter::open(dir_ / "api.db");
     writer.add(make_run(id, 0, "dahl", 0));
     writer.flush();
   }
@@ -481,7 +481,7 @@ TEST_F(ApiTest, HandleCachedAnswersOnlyFreshStudyGetsAndMatchesHandle) {
   EXPECT_FALSE(api.handle_cached(post_json(target, "{}")).has_value());
   // A run committed now is visible once the TTL has passed: the cached answer is never older.
   {
-    auto writer = studies::RunWriter::open(dir_ / "api.db");
+    auto writer = store::RunWriter::open(dir_ / "api.db");
     writer.add(make_run(id, 0, "dahl", 0));
     writer.flush();
   }
@@ -507,12 +507,12 @@ TEST_F(ApiTest, HealthAndMetricsReflectTheStore) {
   const std::string id = body_json(api.handle(post_json("/v1/studies", tiny_study())))["id"];
   body_json(api.handle(post_json("/v1/studies", tiny_study())));
   {
-    auto writer = studies::RunWriter::open(dir_ / "api.db");
+    auto writer = store::RunWriter::open(dir_ / "api.db");
     writer.add(make_run(id, 0, "dahl", 0));
     writer.add(make_run(id, 1, "dahl", 2, "diverged"));
     writer.flush();
   }
-  studies::Store::open(dir_ / "api.db").set_study_state(id, studies::StudyState::kRunning);
+  store::Store::open(dir_ / "api.db").set_study_state(id, store::StudyState::kRunning);
   const Response m = api.handle(get("/metrics"));
   ASSERT_EQ(m.status, 200);
   EXPECT_TRUE(m.header("Content-Type")->starts_with("text/plain; version=0.0.4"));
@@ -542,7 +542,7 @@ TEST(ApiOptions, InvalidOptionsAreRejectedWithTheField) {
 TEST(ApiStore, UnopenableDatabaseFailsAtConstruction) {
   ApiOptions o;
   o.db = "/nonexistent-dir/x/y.db";
-  EXPECT_THROW(Api api(o), studies::StoreError);
+  EXPECT_THROW(Api api(o), store::StoreError);
 }
 
 }  // namespace

@@ -8,8 +8,8 @@
 #include <set>
 
 #include "stickslip/server/api.h"
-#include "stickslip/studies/diagnosis_request.h"
-#include "stickslip/studies/store.h"
+#include "stickslip/diagnosis/diagnosis_request.h"
+#include "stickslip/store/store.h"
 #include "test_support.h"
 
 namespace stickslip::server {
@@ -71,7 +71,7 @@ class DiagnosesApi : public ::testing::Test {
     return errors(expect_problem(r, 422));
   }
   std::size_t stored() {
-    auto store = studies::Store::open(dir_ / "api.db");
+    auto store = store::Store::open(dir_ / "api.db");
     return store.list_diagnoses(100).size();
   }
   void SetUp() override { api_ = std::make_unique<Api>(options()); }
@@ -94,7 +94,7 @@ TEST_F(DiagnosesApi, ValidRequestIsQueuedWithLocationAndReadBack) {
   EXPECT_TRUE(d["started_at"].is_null());
 
   // The canonical request is stored as sent (the CSV text included).
-  auto store = studies::Store::open(dir_ / "api.db");
+  auto store = store::Store::open(dir_ / "api.db");
   EXPECT_EQ(json::parse(*store.get_diagnosis_request(id)), req);
 
   const Response g = api_->handle(get("/v1/diagnoses/" + id));
@@ -150,14 +150,14 @@ TEST_F(DiagnosesApi, WholeRunOptionsAreParsed) {
   json req = request();
   req["options"]["whole_run_holdout"] = false;
   req["options"]["max_evals_fold"] = 12;
-  const auto parsed = studies::parse_diagnosis_request(req);
-  ASSERT_TRUE(parsed.ok()) << studies::to_string(parsed.errors);
+  const auto parsed = diagnosis::parse_diagnosis_request(req);
+  ASSERT_TRUE(parsed.ok()) << common::to_string(parsed.errors);
   EXPECT_FALSE(parsed.request->options.whole_run_holdout);
   EXPECT_EQ(parsed.request->options.max_evals_fold, 12);
-  const auto plain = studies::parse_diagnosis_request(request());
+  const auto plain = diagnosis::parse_diagnosis_request(request());
   ASSERT_TRUE(plain.ok());
   EXPECT_TRUE(plain.request->options.whole_run_holdout);
-  EXPECT_EQ(plain.request->options.max_evals_fold, studies::DiagnoseOptions{}.max_evals_fold);
+  EXPECT_EQ(plain.request->options.max_evals_fold, diagnosis::DiagnoseOptions{}.max_evals_fold);
 }
 
 TEST_F(DiagnosesApi, SchemaAndOptionErrorsArePointed) {
@@ -276,8 +276,8 @@ TEST_F(DiagnosesApi, CancelAndPagination) {
   EXPECT_EQ(api_->handle(post_json("/v1/diagnoses/" + ids[0] + ":cancel", "")).status, 200);
   expect_problem(api_->handle(post_json("/v1/diagnoses/dg-nope:cancel", "")), 404);
   {
-    auto store = studies::Store::open(dir_ / "api.db");
-    store.finish_diagnosis(ids[1], studies::StudyState::kSucceeded, R"({"cause": "none"})");
+    auto store = store::Store::open(dir_ / "api.db");
+    store.finish_diagnosis(ids[1], store::StudyState::kSucceeded, R"({"cause": "none"})");
   }
   expect_problem(api_->handle(post_json("/v1/diagnoses/" + ids[1] + ":cancel", "")), 409);
   EXPECT_EQ(body_json(api_->handle(get("/v1/diagnoses/" + ids[1])))["result"],

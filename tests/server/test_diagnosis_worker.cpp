@@ -15,7 +15,7 @@
 #include <thread>
 
 #include "stickslip/server/api.h"
-#include "stickslip/studies/synth.h"
+#include "stickslip/measured/synth.h"
 #include "test_support.h"
 
 namespace stickslip::server {
@@ -23,13 +23,13 @@ namespace {
 
 using namespace std::chrono_literals;
 using nlohmann::json;
-using studies::StudyState;
+using store::StudyState;
 using testing::body_json;
 using testing::get;
 using testing::post_json;
 using testing::TempDir;
 
-std::string to_csv(const studies::MeasuredRun& r) {
+std::string to_csv(const measured::MeasuredRun& r) {
   std::string s = "t,Fd\n";
   char line[64];
   for (std::size_t i = 0; i < r.t.size(); ++i) {
@@ -42,9 +42,9 @@ std::string to_csv(const studies::MeasuredRun& r) {
 /// A short synthetic LuGre dataset (2 runs of 3 s, vibration from 1.5 s; 500 Hz) as a request
 /// with tiny options, so that a real diagnosis takes seconds.
 json small_request() {
-  studies::SynthOptions o;
-  o.model = SimConfig::seed(ModelKind::kLuGre, 0.0);
-  studies::MeasuredConditions c;
+  measured::SynthOptions o;
+  o.model = engine::SimConfig::seed(engine::ModelKind::kLuGre, 0.0);
+  measured::MeasuredConditions c;
   c.t_on = 1.5;
   c.duration = 3.0;
   o.runs = {c, c};
@@ -53,7 +53,7 @@ json small_request() {
   o.noise_sigma = 0.03;
   o.seed = 7;
   o.rtol = 1e-7;
-  const studies::MeasuredDataset ds = studies::synthesize(o);
+  const measured::MeasuredDataset ds = measured::synthesize(o);
   json manifest = {{"name", "small"}, {"runs", json::array()}};
   json files = json::object();
   for (std::size_t i = 0; i < ds.runs.size(); ++i) {
@@ -118,16 +118,16 @@ TEST(DiagnosisWorker, RealDiagnosisStoresExactlyTheLibrarysResult) {
   // The library on the same data, options spelled out here (not taken from the server's parser).
   std::map<std::string, std::string> files;
   for (const auto& [k, v] : req["files"].items()) files[k] = v;
-  const studies::MeasuredDataset data = studies::load_measured(req["manifest"], files);
-  studies::DiagnoseOptions o;
-  o.models = {ModelKind::kLuGre};
-  o.candidates = {ExtensionKind::kViscous};
+  const measured::MeasuredDataset data = measured::load_measured(req["manifest"], files);
+  diagnosis::DiagnoseOptions o;
+  o.models = {engine::ModelKind::kLuGre};
+  o.candidates = {engine::ExtensionKind::kViscous};
   o.max_evals_base = 12;
   o.max_evals_candidate = 10;
   o.short_window = 1.0;
   o.later_stage_fit_span = 1.0;
   o.keep_traces = false;
-  json expected = studies::to_json(studies::diagnose(data, o));
+  json expected = diagnosis::to_json(diagnosis::diagnose(data, o));
   json got = done["result"];
   ASSERT_TRUE(got.is_object());
   for (json* j : {&expected, &got}) j->erase("seconds");  // wall time
@@ -139,7 +139,7 @@ TEST(DiagnosisWorker, RealDiagnosisStoresExactlyTheLibrarysResult) {
 class FakeDiagnosis {
  public:
   DiagnoseFn fn() {
-    return [this](const studies::MeasuredDataset& data, const studies::DiagnoseOptions&) -> json {
+    return [this](const measured::MeasuredDataset& data, const diagnosis::DiagnoseOptions&) -> json {
       std::unique_lock lock(mu_);
       started_.push_back(data.name);
       cv_.notify_all();
@@ -189,7 +189,7 @@ class StoppableDiagnosis {
  public:
   explicit StoppableDiagnosis(bool plain_error = false) : plain_error_(plain_error) {}
   DiagnoseFn fn() {
-    return [this](const studies::MeasuredDataset& data, const studies::DiagnoseOptions& o) -> json {
+    return [this](const measured::MeasuredDataset& data, const diagnosis::DiagnoseOptions& o) -> json {
       if (data.name == "quick") return {{"dataset", data.name}};
       {
         std::lock_guard lock(mu_);
@@ -203,7 +203,7 @@ class StoppableDiagnosis {
           std::lock_guard lock(mu_);
           stopped_ = true;
           if (plain_error_) throw std::runtime_error("no base model could be calibrated");
-          throw studies::DiagnosisCancelled();
+          throw diagnosis::DiagnosisCancelled();
         }
         std::this_thread::sleep_for(1ms);
       }
@@ -251,7 +251,7 @@ class DiagnosisWorkerFake : public ::testing::Test {
     return body_json(r)["id"];
   }
   StudyState state(const std::string& id) {
-    auto store = studies::Store::open(ao_.db);
+    auto store = store::Store::open(ao_.db);
     return store.get_diagnosis(id)->state;
   }
   TempDir dir_;
@@ -264,7 +264,7 @@ TEST_F(DiagnosisWorkerFake, QueuedAndInterruptedDiagnosesRunAfterARestart) {
   const std::string a = queue("first");
   const std::string b = queue("second");
   {
-    auto store = studies::Store::open(ao_.db);
+    auto store = store::Store::open(ao_.db);
     store.set_diagnosis_state(a, StudyState::kRunning);
   }
   DiagnosisWorker worker(ao_.db, wo(), fake_.fn());
@@ -373,7 +373,7 @@ TEST_F(DiagnosisWorkerFake, ShutdownStopsTheRunningComputationAndRequeuesIt) {
     EXPECT_TRUE(worker.shutdown(20s));
     EXPECT_TRUE(slow.stopped());
     EXPECT_EQ(state(id), StudyState::kQueued) << "plain error: " << plain_error;
-    auto store = studies::Store::open(ao_.db);
+    auto store = store::Store::open(ao_.db);
     store.set_diagnosis_state(id, StudyState::kCancelled);  // out of the next round's way
   }
 }

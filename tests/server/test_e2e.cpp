@@ -14,7 +14,7 @@
 
 #include "daemon.h"
 #include "process.h"
-#include "stickslip/studies/store.h"
+#include "stickslip/store/store.h"
 #include "test_support.h"
 
 namespace stickslip::server {
@@ -138,7 +138,7 @@ TEST_F(EndToEnd, ClientAndCurlSubmitPollAndFetchTheMapWhichMatchesTheStore) {
                                         dir_.path());
   ASSERT_EQ(map.code, 0) << map.err;
   const json m = json::parse(slurp(map_file));
-  auto store = studies::Store::open(dir_ / "e2e.db", studies::Store::Mode::kReadOnly);
+  auto store = store::Store::open(dir_ / "e2e.db", store::Store::Mode::kReadOnly);
   const auto runs = store.get_runs(id1);
   ASSERT_EQ(runs.size(), 6u);
   std::size_t checked = 0;
@@ -368,9 +368,9 @@ TEST_F(Interrupted, SigtermExitsZeroKeepsFinishedRunsAndTheStudyResumes) {
     d.process().signal(SIGTERM);
     EXPECT_EQ(d.process().wait(60s), 0) << d.process().err();
   }
-  auto store = studies::Store::open(dir_ / "e2e.db");
+  auto store = store::Store::open(dir_ / "e2e.db");
   const auto rec = store.get_study(id);
-  EXPECT_EQ(rec->state, studies::StudyState::kQueued) << "not left to resume";
+  EXPECT_EQ(rec->state, store::StudyState::kQueued) << "not left to resume";
   const StoreFacts mid = store_facts(dir_ / "e2e.db", id);
   EXPECT_EQ(mid.integrity, "ok");
   EXPECT_GE(mid.runs, seen_done) << "runs reported done were lost";

@@ -11,8 +11,8 @@
 
 #include "daemon.h"
 #include "process.h"
-#include "stickslip/studies/store.h"
-#include "stickslip/studies/synth.h"
+#include "stickslip/store/store.h"
+#include "stickslip/measured/synth.h"
 #include "test_support.h"
 
 namespace stickslip::server {
@@ -42,9 +42,9 @@ class DiagnosesEndToEnd : public ::testing::Test {
  protected:
   /// A short synthetic dataset on disk (2 LuGre runs of 6 s, vibration from 3 s, 500 Hz).
   fs::path write_dataset() {
-    studies::SynthOptions o;
-    o.model = SimConfig::seed(ModelKind::kLuGre, 0.0);
-    studies::MeasuredConditions c;
+    measured::SynthOptions o;
+    o.model = engine::SimConfig::seed(engine::ModelKind::kLuGre, 0.0);
+    measured::MeasuredConditions c;
     c.t_on = 3.0;
     c.duration = 6.0;
     o.runs = {c, c};
@@ -52,7 +52,7 @@ class DiagnosesEndToEnd : public ::testing::Test {
     o.rate = 500.0;
     o.seed = 3;
     o.rtol = 1e-7;
-    return studies::write_dataset(studies::synthesize(o), dir_ / "data");
+    return measured::write_dataset(measured::synthesize(o), dir_ / "data");
   }
   std::vector<std::string> small_options() {
     return {"--models", "lugre", "--candidates", "viscous", "--max-evals-base", "12",
@@ -76,7 +76,7 @@ TEST_F(DiagnosesEndToEnd, ClientSubmitsWaitsAndWritesTheStoredResultAndCurlGetsP
   const json written = json::parse(slurp(dir_ / "out" / "diagnosis.json"));
   EXPECT_EQ(written, resource["result"]);
   {
-    auto store = studies::Store::open(dir_ / "e2e.db", studies::Store::Mode::kReadOnly);
+    auto store = store::Store::open(dir_ / "e2e.db", store::Store::Mode::kReadOnly);
     EXPECT_EQ(json::parse(*store.get_diagnosis(id)->result_json), written);
   }
   // The status command reads it back.
@@ -134,8 +134,8 @@ TEST_F(DiagnosesEndToEnd, SigtermDuringADiagnosisExitsZeroAndTheNextStartRunsIt)
     EXPECT_EQ(d.process().wait(30s), 0) << d.process().err();
   }
   {
-    auto store = studies::Store::open(dir_ / "e2e.db", studies::Store::Mode::kReadOnly);
-    EXPECT_EQ(store.get_diagnosis(id)->state, studies::StudyState::kQueued);
+    auto store = store::Store::open(dir_ / "e2e.db", store::Store::Mode::kReadOnly);
+    EXPECT_EQ(store.get_diagnosis(id)->state, store::StudyState::kQueued);
   }
   Daemon d(dir_.path(), {"--diagnosis-threads", "2", "--diagnosis-grace", "0"});
   const CommandResult w =

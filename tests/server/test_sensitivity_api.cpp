@@ -5,7 +5,7 @@
 
 #include "stickslip/server/api.h"
 #include "stickslip/studies/runner.h"
-#include "stickslip/studies/store.h"
+#include "stickslip/store/store.h"
 #include "test_support.h"
 
 namespace stickslip::server {
@@ -20,7 +20,7 @@ using testing::TempDir;
 std::string run_into(const std::filesystem::path& db, const std::string& text) {
   studies::ParseResult parsed = studies::parse_study(text);
   EXPECT_TRUE(parsed.ok()) << (parsed.ok() ? "" : parsed.errors[0].message);
-  studies::Store store = studies::Store::open(db);
+  store::Store store = store::Store::open(db);
   const std::string id = studies::create_or_find_study(store, *parsed.spec).id;
   EXPECT_EQ(studies::run_study(db, id, *parsed.spec).outcome, studies::RunOutcome::kCompleted);
   return id;

@@ -17,7 +17,7 @@ namespace {
 
 using namespace std::chrono_literals;
 using nlohmann::json;
-using studies::StudyState;
+using store::StudyState;
 using testing::body_json;
 using testing::post_json;
 using testing::TempDir;
@@ -29,7 +29,7 @@ class FakeRunner {
   RunStudyFn fn() {
     return [this](const std::filesystem::path& db, const std::string& id,
                   const studies::StudySpec& spec, const studies::RunnerOptions& o) {
-      auto store = studies::Store::open(db);
+      auto store = store::Store::open(db);
       store.set_study_state(id, StudyState::kRunning);
       {
         std::unique_lock lock(mu_);
@@ -83,7 +83,7 @@ class FakeRunner {
 };
 
 StudyState state_of(const std::filesystem::path& db, const std::string& id) {
-  return studies::Store::open(db).get_study(id)->state;
+  return store::Store::open(db).get_study(id)->state;
 }
 
 /// Polls until the study reaches state (the worker finishes asynchronously).
@@ -149,7 +149,7 @@ TEST_F(WorkerTest, StudiesLeftRunningByACrashResume) {
   {
     Api api(api_options());
     id = create(api);
-    studies::Store::open(db()).set_study_state(id, StudyState::kRunning);  // as after SIGKILL
+    store::Store::open(db()).set_study_state(id, StudyState::kRunning);  // as after SIGKILL
   }
   runner_.release_all();
   Worker worker(db(), worker_options(), runner_.fn());
@@ -208,7 +208,7 @@ TEST_F(WorkerTest, AStoredSpecThatNoLongerParsesFailsTheStudy) {
   Worker worker(db(), o, runner_.fn());
   worker.start();
   ASSERT_TRUE(wait_state(db(), id, StudyState::kFailed));
-  const auto rec = studies::Store::open(db()).get_study(id);
+  const auto rec = store::Store::open(db()).get_study(id);
   EXPECT_NE(rec->error->find("/design"), std::string::npos) << *rec->error;
   EXPECT_TRUE(runner_.started().empty());
 }

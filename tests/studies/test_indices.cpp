@@ -22,7 +22,8 @@
 namespace {
 
 namespace fs = std::filesystem;
-namespace ss = stickslip::sensitivity;
+namespace ss = stickslip::studies::sensitivity;
+using namespace stickslip;
 using namespace stickslip::studies;
 
 // A fresh temp directory per test, removed at scope exit.
@@ -40,7 +41,7 @@ StudySpec parse_ok(const std::string& text) {
 std::string run(const fs::path& db, const StudySpec& spec) {
   std::string id;
   {
-    Store store = Store::open(db);
+    store::Store store = store::Store::open(db);
     id = create_or_find_study(store, spec).id;
   }
   RunnerOptions opt;
@@ -53,7 +54,7 @@ std::string run(const fs::path& db, const StudySpec& spec) {
 
 StudyIndices indices(const fs::path& db, const std::string& id,
                      const std::vector<std::string>& outputs = {}, IndicesOptions opt = {}) {
-  Store store = Store::open(db, Store::Mode::kReadOnly);
+  store::Store store = store::Store::open(db, store::Store::Mode::kReadOnly);
   return compute_indices(store, id, outputs, opt);
 }
 
@@ -172,7 +173,7 @@ TEST(IndicesEndToEnd, FailedRunsMakeIndicesInvalid) {
   const std::string id = run(dir / "f.db", spec);
   std::set<std::int64_t> failed;
   {
-    Store store = Store::open(dir / "f.db", Store::Mode::kReadOnly);
+    store::Store store = store::Store::open(dir / "f.db", store::Store::Mode::kReadOnly);
     for (const auto& run : store.get_runs(id, -1, 100000))
       if (run.status != "ok") failed.insert(run.design_index);
   }
@@ -236,8 +237,8 @@ TEST(IndicesEndToEnd, RaisedStaticFrictionKeepsIndicesValidAndIsCounted) {
                         {"stages", {{{"duration", 0.3}}, {{"duration", 0.2}}}},
                         {"design", {{"type", "list"}, {"points", {{{"F_S", fc}, {"F_C", fc}}}}}}};
   const StudySpec explicit_spec = parse_ok(doc.dump());
-  const RunRecord want = compute_run(explicit_spec, 0, "x");
-  Store store = Store::open(dir / "r.db", Store::Mode::kReadOnly);
+  const store::RunRecord want = compute_run(explicit_spec, 0, "x");
+  store::Store store = store::Store::open(dir / "r.db", store::Store::Mode::kReadOnly);
   const auto got = store.get_runs(id, static_cast<std::int64_t>(raised) - 1, 1);
   ASSERT_EQ(got.size(), 1u);
   ASSERT_EQ(got[0].status, "ok") << got[0].error;
@@ -254,9 +255,9 @@ TEST(IndicesEndToEnd, MissingRunsMakeIndicesInvalid) {
       "design": {"type": "sobol", "n": 16}})");
   std::string id;
   {
-    Store store = Store::open(dir / "m.db");
+    store::Store store = store::Store::open(dir / "m.db");
     id = create_or_find_study(store, spec).id;
-    RunWriter w = RunWriter::open(dir / "m.db");
+    store::RunWriter w = store::RunWriter::open(dir / "m.db");
     for (std::size_t i = 0; i < spec.run_count(); i += 2) w.add(compute_run(spec, i, id));
     w.flush();
   }
@@ -327,7 +328,7 @@ TEST(IndicesEndToEnd, BadRequestsNameTheProblem) {
       "design": {"type": "grid", "axes": [{"name": "m", "values": [0.5]}]}})");
   const StudySpec ish = parse_ok(R"({"name": "ish", "base": {"model": "ishigami"},
       "design": {"type": "sobol", "n": 4}})");
-  Store store = Store::open(dir / "b.db");
+  store::Store store = store::Store::open(dir / "b.db");
   const std::string gid = create_or_find_study(store, grid).id;
   const std::string iid = create_or_find_study(store, ish).id;
   auto message = [&](const std::string& id, std::vector<std::string> outs) -> std::string {
@@ -340,7 +341,7 @@ TEST(IndicesEndToEnd, BadRequestsNameTheProblem) {
   };
   EXPECT_NE(message(gid, {}).find("'grid' design"), std::string::npos);
   EXPECT_NE(message(iid, {"stage2.amplitude"}).find("only output is 'y'"), std::string::npos);
-  EXPECT_THROW(compute_indices(store, "st-nope"), StoreError);
+  EXPECT_THROW(compute_indices(store, "st-nope"), store::StoreError);
   IndicesOptions bad;
   bad.confidence = 1.5;
   EXPECT_THROW(compute_indices(store, iid, {}, bad), std::invalid_argument);

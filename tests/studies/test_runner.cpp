@@ -43,8 +43,8 @@ const char* kSmallGrid = R"({"name": "grid8", "stages": [{"duration": 2.5}, {"du
   "design": {"type": "grid", "axes": [{"name": "model", "values": ["karnopp", "lugre"]},
                                       {"name": "va_over_vd", "values": [0, 0.2, 1.1, 4]}]}})";
 
-std::vector<RunRecord> all_runs(const fs::path& db, const std::string& id) {
-  Store s = Store::open(db, Store::Mode::kReadOnly);
+std::vector<store::RunRecord> all_runs(const fs::path& db, const std::string& id) {
+  store::Store s = store::Store::open(db, store::Store::Mode::kReadOnly);
   return s.get_runs(id, -1, 100000);
 }
 
@@ -55,7 +55,7 @@ std::uint64_t bits(double v) {
 }
 
 // Everything a run computed, bit for bit (wall time and finish time excluded).
-void expect_same_results(const RunRecord& a, const RunRecord& b) {
+void expect_same_results(const store::RunRecord& a, const store::RunRecord& b) {
   SCOPED_TRACE("design index " + std::to_string(a.design_index));
   EXPECT_EQ(a.design_index, b.design_index);
   EXPECT_EQ(a.param_hash, b.param_hash);
@@ -73,8 +73,8 @@ void expect_same_results(const RunRecord& a, const RunRecord& b) {
 
 RunSummary run_new(const fs::path& db, const StudySpec& spec, RunnerOptions opt = {},
                    std::string* id_out = nullptr) {
-  Store store = Store::open(db);
-  const StudyRecord st = create_or_find_study(store, spec);
+  store::Store store = store::Store::open(db);
+  const store::StudyRecord st = create_or_find_study(store, spec);
   if (id_out != nullptr) *id_out = st.id;
   return run_study(db, st.id, spec, opt);
 }
@@ -97,8 +97,8 @@ TEST(Runner, ResultsAreBitwiseIdenticalForOneAndTwoThreadsAndMatchTheEngine) {
   for (std::size_t i = 0; i < a.size(); ++i) expect_same_results(a[i], b[i]);
 
   // ... and each stored run is exactly what the engine gives for that configuration.
-  for (const RunRecord& r : a) {
-    const SimResult direct = simulate(spec.config_for(spec.point(r.design_index)));
+  for (const store::RunRecord& r : a) {
+    const engine::SimResult direct = engine::simulate(spec.config_for(spec.point(r.design_index)));
     ASSERT_EQ(direct.stages.size(), r.stages.size());
     for (std::size_t s = 0; s < r.stages.size(); ++s)
       EXPECT_EQ(bits(direct.stages[s].amplitude), bits(r.stages[s].amplitude));
@@ -142,7 +142,7 @@ TEST(Runner, BatchedRk4StudiesStoreExactlyWhatSimulateGives) {
       ++invalid;
       continue;
     }
-    const SimResult direct = simulate(spec.config_for(p));
+    const engine::SimResult direct = engine::simulate(spec.config_for(p));
     EXPECT_EQ(a[i].status, to_string(direct.status));
     EXPECT_EQ(a[i].steps, static_cast<std::int64_t>(direct.steps));
     ASSERT_EQ(direct.stages.size(), a[i].stages.size());
@@ -175,8 +175,8 @@ TEST(Runner, FailedRunsAreStoredWithReasonAndTheStudyCarriesOn) {
   EXPECT_EQ(runs[2].status, "diverged");
   EXPECT_FALSE(runs[2].error.empty());
   EXPECT_EQ(s.failed, 2);
-  Store store = Store::open(dir / "f.db", Store::Mode::kReadOnly);
-  EXPECT_EQ(store.get_study(id)->state, StudyState::kSucceeded);
+  store::Store store = store::Store::open(dir / "f.db", store::Store::Mode::kReadOnly);
+  EXPECT_EQ(store.get_study(id)->state, store::StudyState::kSucceeded);
 
   // The map marks the failed cells instead of dropping them.
   const StudyMap map = build_map(store, id);
@@ -203,13 +203,13 @@ TEST(Runner, ResumeComputesOnlyMissingRunsAndNeverDuplicates) {
   EXPECT_GE(first.computed, 3);
   EXPECT_LT(first.computed, 8);
   {
-    Store store = Store::open(db, Store::Mode::kReadOnly);
-    EXPECT_EQ(store.get_study(id)->state, StudyState::kRunning);  // resumable, not cancelled
+    store::Store store = store::Store::open(db, store::Store::Mode::kReadOnly);
+    EXPECT_EQ(store.get_study(id)->state, store::StudyState::kRunning);  // resumable, not cancelled
     const StudyMap partial = build_map(store, id);
     EXPECT_EQ(partial.missing, 8 - first.computed);  // missing cells are marked
   }
   // Second pass through create-or-find: same study, only the rest is computed.
-  Store store = Store::open(db);
+  store::Store store = store::Store::open(db);
   EXPECT_EQ(create_or_find_study(store, spec).id, id);
   std::vector<Progress> seen;
   RunnerOptions opt2;
@@ -252,13 +252,13 @@ TEST(Runner, CancelKeepsFinishedRunsAndMarksTheStudyCancelled) {
   std::string id;
   const RunSummary s = run_new(dir / "c.db", spec, opt, &id);
   EXPECT_EQ(s.outcome, RunOutcome::kCancelled);
-  Store store = Store::open(dir / "c.db", Store::Mode::kReadOnly);
-  EXPECT_EQ(store.get_study(id)->state, StudyState::kCancelled);
+  store::Store store = store::Store::open(dir / "c.db", store::Store::Mode::kReadOnly);
+  EXPECT_EQ(store.get_study(id)->state, store::StudyState::kCancelled);
   EXPECT_EQ(store.count_runs(id).done, s.computed);
   EXPECT_GE(s.computed, 2);
   EXPECT_LT(s.computed, 8);
   // A cancelled study is not picked up again by create-or-find: a new one is made.
-  Store rw = Store::open(dir / "c.db");
+  store::Store rw = store::Store::open(dir / "c.db");
   EXPECT_NE(create_or_find_study(rw, spec).id, id);
 }
 
@@ -281,11 +281,11 @@ TEST(Runner, AnalyticStudyStoresTheFunctionValue) {
 // different model does not, and conditions that match no measured run give no RMSE.
 TEST(Runner, RmseAgainstMeasuredDataOfTheSameConditions) {
   TempDir dir;
-  SimConfig truth = SimConfig::seed(ModelKind::kLuGre, 0.2e-3);
-  truth.stages = {Stage{0.6, 0.0, 1500.0}, Stage{0.6, 0.2e-3, 1500.0}};
+  engine::SimConfig truth = engine::SimConfig::seed(engine::ModelKind::kLuGre, 0.2e-3);
+  truth.stages = {engine::Stage{0.6, 0.0, 1500.0}, engine::Stage{0.6, 0.2e-3, 1500.0}};
   truth.trace.rate = 4000;
-  const SimResult tr = simulate(truth);
-  ASSERT_EQ(tr.status, RunStatus::kOk);
+  const engine::SimResult tr = engine::simulate(truth);
+  ASSERT_EQ(tr.status, engine::RunStatus::kOk);
   {
     std::ofstream csv(dir / "va0.2.csv");
     csv << "t,Fd,other\n";
@@ -322,12 +322,12 @@ TEST(Runner, RmseAgainstMeasuredDataOfTheSameConditions) {
   fs::remove(dir / "va0.2.csv");
   std::string id2;
   ParseResult again = parse_study(text);
-  Store store = Store::open(dir / "m2.db");
+  store::Store store = store::Store::open(dir / "m2.db");
   id2 = create_or_find_study(store, *again.spec).id;
   const RunSummary bad = run_study(dir / "m2.db", id2, *again.spec, opt);
   EXPECT_EQ(bad.outcome, RunOutcome::kFailed);
   EXPECT_NE(bad.error.find("va0.2.csv"), std::string::npos) << bad.error;
-  EXPECT_EQ(store.get_study(id2)->state, StudyState::kFailed);
+  EXPECT_EQ(store.get_study(id2)->state, store::StudyState::kFailed);
 }
 
 TEST(Runner, StoreProblemsFailTheStudyWithoutThrowing) {
@@ -338,7 +338,7 @@ TEST(Runner, StoreProblemsFailTheStudyWithoutThrowing) {
   EXPECT_NE(s.error.find("none.db"), std::string::npos) << s.error;
   EXPECT_FALSE(fs::exists(dir / "none.db")) << "a failed run_study must not create a database";
 
-  { Store::open(dir / "empty.db"); }  // an initialised store without that study
+  { store::Store::open(dir / "empty.db"); }  // an initialised store without that study
   const RunSummary s2 = run_study(dir / "empty.db", "st-unknown", spec, {});
   EXPECT_EQ(s2.outcome, RunOutcome::kFailed);
   EXPECT_NE(s2.error.find("st-unknown"), std::string::npos) << s2.error;

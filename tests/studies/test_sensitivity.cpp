@@ -1,4 +1,4 @@
-// Tests for stickslip::sensitivity: designs (scrambled Sobol, Saltelli, Morris), Sobol and
+// Tests for stickslip::studies::sensitivity: designs (scrambled Sobol, Saltelli, Morris), Sobol and
 // Morris estimators against the analytic Ishigami and Sobol G functions, bootstrap coverage.
 #include "stickslip/studies/sensitivity.h"
 
@@ -16,7 +16,7 @@
 #include <string>
 #include <vector>
 
-namespace ss = stickslip::sensitivity;
+namespace ss = stickslip::studies::sensitivity;
 
 namespace {
 

@@ -10,9 +10,10 @@
 #include <sstream>
 #include <string>
 
-#include "stickslip/studies/json_schema.h"
+#include "stickslip/common/json_schema.h"
 #include "stickslip/studies/sensitivity.h"
 #include "stickslip/studies/spec.h"
+#include "support/spec_errors.h"
 
 namespace stickslip::studies {
 namespace {
@@ -36,32 +37,19 @@ StudySpec parse_ok(const std::string& text, const Limits& limits = {}) {
 
 StudySpec parse_ok(const json& doc) { return parse_ok(doc.dump()); }
 
-std::vector<SpecError> errors_of(const std::string& text, const Limits& limits = {}) {
+std::vector<common::SpecError> errors_of(const std::string& text, const Limits& limits = {}) {
   auto r = parse_study(text, limits);
   EXPECT_FALSE(r.spec.has_value()) << "expected errors for " << text;
   return r.errors;
 }
 
-std::vector<SpecError> errors_of(const char* text, const Limits& limits = {}) {
+std::vector<common::SpecError> errors_of(const char* text, const Limits& limits = {}) {
   return errors_of(std::string(text), limits);
 }
 
-std::vector<SpecError> errors_of(const json& doc, const Limits& limits = {}) {
+std::vector<common::SpecError> errors_of(const json& doc, const Limits& limits = {}) {
   return errors_of(doc.dump(), limits);
 }
-
-// The error at 'pointer' whose message contains 'text', if any.
-bool has_error(const std::vector<SpecError>& errors, const std::string& pointer,
-               const std::string& text) {
-  return std::any_of(errors.begin(), errors.end(), [&](const SpecError& e) {
-    return e.pointer == pointer && e.message.find(text) != std::string::npos;
-  });
-}
-
-#define EXPECT_ERROR(errors, pointer, text) \
-  EXPECT_TRUE(has_error(errors, pointer, text)) << "wanted " << pointer << ": " << text \
-                                                << "\ngot:\n"                           \
-                                                << to_string(errors)
 
 // A small valid engine study to break one field at a time.
 json valid_doc() {
@@ -96,15 +84,15 @@ TEST(ShippedStudies, PaperMapHas204RunsOverFourModelsAndVaOverVd) {
   EXPECT_EQ(last.value("va_over_vd"), 5.0);
   EXPECT_DOUBLE_EQ(*last.value("v_a"), 5e-3);
 
-  const SimConfig c = spec.config_for(p);
-  EXPECT_EQ(c.model, ModelKind::kKarnopp);
+  const engine::SimConfig c = spec.config_for(p);
+  EXPECT_EQ(c.model, engine::ModelKind::kKarnopp);
   ASSERT_EQ(c.stages.size(), 2u);
   EXPECT_EQ(c.stages[0].duration, 10.0);
   EXPECT_EQ(c.stages[0].v_a, 0.0);
   EXPECT_EQ(c.stages[1].duration, 10.0);
   EXPECT_DOUBLE_EQ(c.stages[1].v_a, 0.3e-3);
   EXPECT_EQ(c.stages[1].f, 1500.0);
-  EXPECT_EQ(c.integrator.kind, IntegratorKind::kAdaptive);
+  EXPECT_EQ(c.integrator.kind, engine::IntegratorKind::kAdaptive);
   EXPECT_EQ(c.drive.m, 0.665);
   EXPECT_EQ(c.drive.k_d, 11700.0);
   EXPECT_EQ(c.drive.v_d, 1e-3);
@@ -125,7 +113,7 @@ TEST(ShippedStudies, PaperFiguresHas16RunsWithTraces) {
     for (double va : {0.0, 0.2e-3, 1.1e-3, 4e-3}) want.emplace(m, va);
   EXPECT_EQ(seen, want);
   const auto c = spec.config_for(spec.point(4 * 3 + 2));  // lugre, 1.1 mm/s
-  EXPECT_EQ(c.model, ModelKind::kLuGre);
+  EXPECT_EQ(c.model, engine::ModelKind::kLuGre);
   EXPECT_EQ(c.stages[0].v_a, 0.0);
   EXPECT_EQ(c.stages[1].v_a, 1.1e-3);
 }
@@ -199,7 +187,7 @@ TEST(GridDesign, VaOverVdIsResolvedAfterVdWhateverTheAxisOrder) {
 TEST(BaseShorthands, StageAndIntegratorNamesInBaseMoveToTheirSections) {
   const auto spec = parse_ok(json::parse(R"({"name": "sh", "base": {"model": "karnopp",
       "v_a": 0.0011, "t_on": 5, "stage2.f": 1000, "dt": 2e-6}})"));
-  const SimConfig c = spec.config_for(spec.point(0));
+  const engine::SimConfig c = spec.config_for(spec.point(0));
   ASSERT_EQ(c.stages.size(), 2u);
   EXPECT_EQ(c.stages[0].duration, 5.0);
   EXPECT_EQ(c.stages[1].duration, 15.0);  // the run keeps its end time
@@ -247,7 +235,7 @@ TEST(ListDesign, PointsInOrderWithSortedCanonicalNames) {
   EXPECT_EQ(spec.config_for(p1).friction.F_C, 7.0);
   EXPECT_EQ(spec.canonical_point_json(p1), R"({"F_C":7.0,"k_d":9000.0,"model":"dahl"})");
   EXPECT_TRUE(spec.point(2).values.empty());
-  EXPECT_EQ(spec.config_for(spec.point(2)).model, ModelKind::kDahl);
+  EXPECT_EQ(spec.config_for(spec.point(2)).model, engine::ModelKind::kDahl);
 }
 
 TEST(ListDesign, MissingDesignIsOneRunOfTheBase) {
@@ -358,7 +346,7 @@ TEST(ConfigFor, InvalidPointThrowsInvalidParameterNamingTheField) {
   try {
     spec.config_for(spec.point(0));
     FAIL() << "F_S = 5 < F_C should be rejected";
-  } catch (const InvalidParameter& e) {
+  } catch (const engine::InvalidParameter& e) {
     EXPECT_EQ(e.field(), "F_S");
     EXPECT_NE(std::string(e.what()).find('5'), std::string::npos);
   }
@@ -366,10 +354,10 @@ TEST(ConfigFor, InvalidPointThrowsInvalidParameterNamingTheField) {
 
   DesignPoint bad = spec.point(1);
   bad.values.emplace_back("m", -1.0);
-  EXPECT_THROW(spec.config_for(bad), InvalidParameter);
+  EXPECT_THROW(spec.config_for(bad), engine::InvalidParameter);
   bad = spec.point(1);
   bad.model = "coulomb";
-  EXPECT_THROW(spec.config_for(bad), InvalidParameter);
+  EXPECT_THROW(spec.config_for(bad), engine::InvalidParameter);
 }
 
 TEST(ConfigFor, FsBelowFcPolicyRaisesFsOnlyWhenAsked) {
@@ -379,7 +367,7 @@ TEST(ConfigFor, FsBelowFcPolicyRaisesFsOnlyWhenAsked) {
   const auto strict = parse_ok(doc);
   EXPECT_EQ(strict.F_S_below_F_C(), FsBelowFc::kFail);
   EXPECT_FALSE(strict.canonical().contains("F_S_below_F_C"));  // old specs keep their hash
-  EXPECT_THROW(strict.config_for(strict.point(0)), InvalidParameter);
+  EXPECT_THROW(strict.config_for(strict.point(0)), engine::InvalidParameter);
   EXPECT_FALSE(strict.raises_F_S(strict.point(0)));
 
   json raising = doc;
@@ -392,7 +380,7 @@ TEST(ConfigFor, FsBelowFcPolicyRaisesFsOnlyWhenAsked) {
   // points: (lugre, 5) (lugre, 10) (karnopp, 5) (karnopp, 10) (dahl, 5) (dahl, 10)
   for (std::size_t i : {0u, 2u}) {
     EXPECT_TRUE(spec.raises_F_S(spec.point(i))) << i;
-    const SimConfig c = spec.config_for(spec.point(i));
+    const engine::SimConfig c = spec.config_for(spec.point(i));
     EXPECT_EQ(c.friction.F_S, 8.3) << i;
     EXPECT_EQ(c.friction.F_C, 8.3) << i;
   }
@@ -405,7 +393,7 @@ TEST(ConfigFor, FsBelowFcPolicyRaisesFsOnlyWhenAsked) {
   // The policy repairs only F_S < F_C: any other bad value still fails, naming it.
   DesignPoint bad = spec.point(0);
   bad.values.emplace_back("m", -1.0);
-  EXPECT_THROW(spec.config_for(bad), InvalidParameter);
+  EXPECT_THROW(spec.config_for(bad), engine::InvalidParameter);
 
   json wrong = doc;
   wrong["F_S_below_F_C"] = "clamp";
@@ -436,7 +424,7 @@ TEST(SpecErrors, DeepNestingIsRejectedBeforeParsing) {
   ASSERT_EQ(errors.size(), 1u) << to_string(errors);
   EXPECT_NE(errors[0].message.find("nested more than 64 levels"), std::string::npos)
       << errors[0].message;
-  EXPECT_EQ(json_nesting_depth(R"({"a": [[1], {"b": "[[[[[[{{{{"}]})"), 3u);
+  EXPECT_EQ(common::json_nesting_depth(R"({"a": [[1], {"b": "[[[[[[{{{{"}]})"), 3u);
   const auto fine = parse_study(R"({"name": "x", "description": ")" + std::string(100, '[') +
                                  R"("})");
   EXPECT_TRUE(fine.ok()) << to_string(fine.errors);
@@ -626,10 +614,10 @@ TEST(SpecErrors, SeveralErrorsAreAllReported) {
 void collect_pointers(const json& node, const std::string& where, std::vector<std::string>* out) {
   out->push_back(where);
   if (node.is_object())
-    for (const auto& [key, sub] : node.items()) collect_pointers(sub, pointer_append(where, key), out);
+    for (const auto& [key, sub] : node.items()) collect_pointers(sub, common::pointer_append(where, key), out);
   if (node.is_array())
     for (std::size_t i = 0; i < node.size(); ++i)
-      collect_pointers(node[i], pointer_append(where, i), out);
+      collect_pointers(node[i], common::pointer_append(where, i), out);
 }
 
 TEST(SpecErrors, AnyNodeReplacedByJunkGivesErrorsNotExceptions) {
@@ -682,7 +670,7 @@ TEST(AnalyticSpecs, IshigamiSobolDesignWithDefaultRanges) {
     for (double v : x) EXPECT_LE(std::abs(v), std::numbers::pi);
     EXPECT_DOUBLE_EQ(spec.analytic_value(p), sensitivity::ishigami(x, 7.0, 0.1));
   }
-  EXPECT_THROW(spec.config_for(spec.point(0)), InvalidParameter);
+  EXPECT_THROW(spec.config_for(spec.point(0)), engine::InvalidParameter);
 }
 
 TEST(AnalyticSpecs, SobolGMorrisWithCoefficients) {
@@ -746,14 +734,14 @@ TEST(Schema, EmbeddedSchemaMatchesTheSourceFile) {
 }
 
 TEST(Schema, DefaultsAndNamesAgreeWithTheEngine) {
-  const SimConfig defaults;
+  const engine::SimConfig defaults;
   const auto& base = study_schema()["$defs"]["base"]["properties"];
   for (const auto& [name, sub] : base.items()) {
     EXPECT_TRUE(sub.contains("description")) << name;
     if (name == "model" || name == "a" || name == "b") continue;
-    EXPECT_NO_THROW(get_parameter(defaults, name)) << name;
+    EXPECT_NO_THROW(engine::get_parameter(defaults, name)) << name;
     if (sub.contains("default")) {
-      EXPECT_DOUBLE_EQ(sub["default"].get<double>(), get_parameter(defaults, name)) << name;
+      EXPECT_DOUBLE_EQ(sub["default"].get<double>(), engine::get_parameter(defaults, name)) << name;
     }
   }
   const auto& integ = study_schema()["$defs"]["integrator"]["properties"];
@@ -794,46 +782,6 @@ TEST(Schema, ObjectsAreClosedAndDocumented) {
   expect_closed_and_documented(schema, "");
   for (const auto& [name, def] : schema["$defs"].items())
     EXPECT_TRUE(def.contains("description")) << name;
-}
-
-// ---------------------------------------------------------------- generic schema validation
-
-TEST(JsonSchema, ReportsEveryErrorWithPointers) {
-  const json schema = json::parse(R"({
-    "type": "object", "additionalProperties": false, "required": ["id"],
-    "properties": {
-      "id": {"type": "integer", "minimum": 1},
-      "tags": {"type": "array", "items": {"type": "string"}, "maxItems": 2},
-      "inner": {"$ref": "#/$defs/inner"}
-    },
-    "$defs": {"inner": {"type": "object", "additionalProperties": false,
-                        "properties": {"x": {"enum": ["a", "b"]}}}}
-  })");
-  const auto ok = validate_against_schema(json::parse(R"({"id": 3, "inner": {"x": "a"}})"), schema);
-  EXPECT_TRUE(ok.empty()) << to_string(ok);
-  const auto errors = validate_against_schema(
-      json::parse(R"({"id": 0, "p": 1, "q": 2, "tags": ["a", 5, "c"], "inner": {"x": "z", "y": 1}})"),
-      schema);
-  EXPECT_ERROR(errors, "/p", "unknown field \"p\"");
-  EXPECT_ERROR(errors, "/q", "unknown field \"q\"");
-  EXPECT_ERROR(errors, "/inner/y", "unknown field \"y\" (allowed: x)");
-  EXPECT_ERROR(errors, "/id", "must be >= 1, got 0");
-  EXPECT_ERROR(errors, "/tags/1", "expected string, got integer");
-  EXPECT_ERROR(errors, "/tags", "expected at most 2 strings, got 3");
-  EXPECT_ERROR(errors, "/inner/x", "must be one of \"a\", \"b\"; got \"z\"");
-  EXPECT_EQ(errors.size(), 7u) << to_string(errors);
-  const auto missing = validate_against_schema(json::object(), schema);
-  ASSERT_EQ(missing.size(), 1u);
-  EXPECT_EQ(missing[0], (SpecError{"", "missing required field \"id\""}));
-}
-
-TEST(JsonSchema, PointerEscaping) {
-  EXPECT_EQ(pointer_append("/a", "b/c~d"), "/a/b~1c~0d");
-  EXPECT_EQ(pointer_append("", std::size_t{3}), "/3");
-  const json schema = json::parse(R"({"type": "object", "additionalProperties": false})");
-  const auto errors = validate_against_schema(json::parse(R"({"a/b": 1})"), schema);
-  ASSERT_EQ(errors.size(), 1u);
-  EXPECT_EQ(errors[0].pointer, "/a~1b");
 }
 
 }  // namespace

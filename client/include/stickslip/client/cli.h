@@ -19,7 +19,7 @@ void add_effect_options(CLI::App& cmd, std::string& effect, std::vector<std::str
 /// Applies them to cfg: the effect id, then each parameter with set_parameter. Throws
 /// InvalidParameter naming the field and the value (also for a malformed NAME=VALUE).
 void apply_effect_options(const std::string& effect, const std::vector<std::string>& params,
-                          SimConfig& cfg);
+                          engine::SimConfig& cfg);
 
 /// Subcommand registration (one function per command family).
 void add_simulate_command(CLI::App& app, int& exit_code);

@@ -9,7 +9,6 @@
 #include <nlohmann/json.hpp>
 
 #include "stickslip/client/http_client.h"
-#include "stickslip/studies/map.h"
 
 namespace stickslip::client {
 
@@ -68,9 +67,6 @@ class Remote {
   ServerUrl server_;
   std::string token_;
 };
-
-/// The inverse of studies::map_to_json (GET /v1/studies/{id}/map serves map_to_json).
-studies::StudyMap map_from_json(const nlohmann::json& j);
 
 /// "queued", "running", ... -> true for succeeded, failed, cancelled.
 bool is_terminal(const std::string& state);

@@ -19,7 +19,7 @@
 #include "stickslip/engine/params.h"
 #include "stickslip/engine/simulate.h"
 
-namespace stickslip {
+namespace stickslip::engine {
 
 /// Most lanes advanced together by one SIMD kernel call; a batch is split into chunks of
 /// batch_chunk_lanes(model) lanes (tuned per model, see docs/engine.md).
@@ -37,4 +37,4 @@ bool batch_compatible(const std::vector<SimConfig>& cfgs, std::string* error = n
 /// Single-threaded: callers parallelise by splitting the vector.
 std::vector<SimResult> simulate_batch(const std::vector<SimConfig>& cfgs);
 
-}  // namespace stickslip
+}  // namespace stickslip::engine

@@ -24,7 +24,7 @@
 #include <cmath>
 #include <cstdint>
 
-namespace stickslip {
+namespace stickslip::engine {
 
 /// a * b + c in one rounding where the target has FMA (one instruction), else two roundings.
 /// Explicit, so that scalar and vectorised code do the same operation (the engine compiles the
@@ -75,4 +75,4 @@ inline double exp_vectorizable(double x) noexcept {
   return p * std::bit_cast<double>((bits + 1023u) << 52);
 }
 
-}  // namespace stickslip
+}  // namespace stickslip::engine

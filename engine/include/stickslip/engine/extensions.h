@@ -46,7 +46,7 @@
 #include <string_view>
 #include <vector>
 
-namespace stickslip {
+namespace stickslip::engine {
 
 enum class ExtensionKind {
   kNone,
@@ -103,4 +103,4 @@ ExtensionKind extension_of_parameter(std::string_view name);
 bool set_extension_parameter(Extension& e, std::string_view name, double value);
 bool get_extension_parameter(const Extension& e, std::string_view name, double* value);
 
-}  // namespace stickslip
+}  // namespace stickslip::engine

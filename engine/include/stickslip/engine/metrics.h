@@ -7,7 +7,7 @@
 #include "stickslip/engine/params.h"
 #include "stickslip/engine/simulate.h"
 
-namespace stickslip {
+namespace stickslip::engine {
 
 class StageAccumulator {
  public:
@@ -37,4 +37,4 @@ class StageAccumulator {
 /// Median of a copy of v (0 for an empty vector).
 double median(std::vector<double> v);
 
-}  // namespace stickslip
+}  // namespace stickslip::engine

@@ -35,7 +35,7 @@
 #include "stickslip/engine/exp.h"
 #include "stickslip/engine/params.h"
 
-namespace stickslip {
+namespace stickslip::engine {
 
 struct FrictionEval {
   double F_f;  ///< friction force on the body [N]
@@ -128,4 +128,4 @@ struct LuGre {
   double strain_scale() const noexcept { return F_S / k_t; }
 };
 
-}  // namespace stickslip
+}  // namespace stickslip::engine

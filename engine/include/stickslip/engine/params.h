@@ -23,7 +23,7 @@
 
 #include "stickslip/engine/extensions.h"
 
-namespace stickslip {
+namespace stickslip::engine {
 
 /// Error for a bad user-supplied value. what() names the field and the value.
 class InvalidParameter : public std::invalid_argument {
@@ -151,4 +151,4 @@ double get_parameter(const SimConfig& cfg, std::string_view name);
 /// stage2.* ...).
 std::vector<std::string> parameter_names();
 
-}  // namespace stickslip
+}  // namespace stickslip::engine

@@ -23,7 +23,7 @@
 
 #include "stickslip/engine/params.h"
 
-namespace stickslip {
+namespace stickslip::engine {
 
 enum class RunStatus { kOk, kDiverged, kInvalid };
 const char* to_string(RunStatus s) noexcept;
@@ -103,4 +103,4 @@ std::string summary_json(const SimConfig& cfg, const SimResult& r, int indent = 
 /// CSV trace with header "t,F_d,F_f,x,v,s".
 void write_trace_csv(const std::vector<TraceSample>& trace, const std::string& path);
 
-}  // namespace stickslip
+}  // namespace stickslip::engine

@@ -36,18 +36,18 @@
 #include <nlohmann/json.hpp>
 
 #include "stickslip/server/scheduler.h"
-#include "stickslip/studies/diagnose.h"
+#include "stickslip/diagnosis/diagnose.h"
 
 namespace stickslip::server {
 
 /// The diagnosis as a function of the dataset and the options, returning the diagnosis.json
 /// document (injected so that tests can control its timing).
-using DiagnoseFn = std::function<nlohmann::json(const studies::MeasuredDataset&,
-                                                const studies::DiagnoseOptions&)>;
+using DiagnoseFn = std::function<nlohmann::json(const measured::MeasuredDataset&,
+                                                const diagnosis::DiagnoseOptions&)>;
 
 /// studies::to_json(studies::diagnose(data, options)): what stickslipd runs.
-nlohmann::json run_diagnosis(const studies::MeasuredDataset& data,
-                             const studies::DiagnoseOptions& options);
+nlohmann::json run_diagnosis(const measured::MeasuredDataset& data,
+                             const diagnosis::DiagnoseOptions& options);
 
 /// What the HTTP handlers need from the diagnosis worker.
 class DiagnosisScheduler {
@@ -56,11 +56,11 @@ class DiagnosisScheduler {
   /// A diagnosis was queued: look at the store now rather than at the next poll.
   virtual void notify_diagnosis() = 0;
   /// Cancels a diagnosis (queued or running -> cancelled); store is the caller's connection.
-  virtual CancelOutcome cancel_diagnosis(studies::Store& store, const std::string& id) = 0;
+  virtual CancelOutcome cancel_diagnosis(store::Store& store, const std::string& id) = 0;
 };
 
 /// Cancellation without a worker: queued or running -> cancelled; terminal: unchanged.
-CancelOutcome cancel_diagnosis_unclaimed(studies::Store& store, const std::string& id);
+CancelOutcome cancel_diagnosis_unclaimed(store::Store& store, const std::string& id);
 
 struct DiagnosisWorkerOptions {
   int threads = 0;                        ///< OpenMP threads per diagnosis; 0 = OpenMP's default
@@ -83,7 +83,7 @@ class DiagnosisWorker final : public DiagnosisScheduler {
   bool shutdown(std::chrono::milliseconds grace = std::chrono::milliseconds::max());
 
   void notify_diagnosis() override;
-  CancelOutcome cancel_diagnosis(studies::Store& store, const std::string& id) override;
+  CancelOutcome cancel_diagnosis(store::Store& store, const std::string& id) override;
 
   /// The id of the diagnosis being computed now, if any.
   std::optional<std::string> running() const;

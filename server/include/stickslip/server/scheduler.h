@@ -4,7 +4,7 @@
 
 #include <string>
 
-#include "stickslip/studies/store.h"
+#include "stickslip/store/store.h"
 
 namespace stickslip::server {
 
@@ -21,11 +21,11 @@ class Scheduler {
   /// A study was queued: look at the store now rather than at the next poll.
   virtual void notify() = 0;
   /// Cancels a study; store is the calling thread's own connection.
-  virtual CancelOutcome cancel(studies::Store& store, const std::string& id) = 0;
+  virtual CancelOutcome cancel(store::Store& store, const std::string& id) = 0;
 };
 
 /// Cancellation of a study that no worker is running: queued or running -> cancelled (its
 /// finished runs are kept); a terminal study is left unchanged.
-CancelOutcome cancel_unclaimed(studies::Store& store, const std::string& id);
+CancelOutcome cancel_unclaimed(store::Store& store, const std::string& id);
 
 }  // namespace stickslip::server

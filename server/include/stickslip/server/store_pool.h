@@ -9,7 +9,7 @@
 #include <mutex>
 #include <vector>
 
-#include "stickslip/studies/store.h"
+#include "stickslip/store/store.h"
 
 namespace stickslip::server {
 
@@ -21,17 +21,17 @@ class StorePool {
 
   class Lease {
    public:
-    Lease(StorePool* pool, std::unique_ptr<studies::Store> store)
+    Lease(StorePool* pool, std::unique_ptr<store::Store> store)
         : pool_(pool), store_(std::move(store)) {}
     Lease(Lease&&) noexcept = default;
     Lease& operator=(Lease&&) = delete;
     ~Lease();
-    studies::Store& operator*() const noexcept { return *store_; }
-    studies::Store* operator->() const noexcept { return store_.get(); }
+    store::Store& operator*() const noexcept { return *store_; }
+    store::Store* operator->() const noexcept { return store_.get(); }
 
    private:
     StorePool* pool_;
-    std::unique_ptr<studies::Store> store_;
+    std::unique_ptr<store::Store> store_;
   };
 
   /// A connection for the calling thread; opens a new one when none is idle.
@@ -39,11 +39,11 @@ class StorePool {
   const std::filesystem::path& path() const noexcept { return db_; }
 
  private:
-  void release(std::unique_ptr<studies::Store> store);
+  void release(std::unique_ptr<store::Store> store);
   std::filesystem::path db_;
   std::size_t max_idle_;
   std::mutex mu_;
-  std::vector<std::unique_ptr<studies::Store>> idle_;
+  std::vector<std::unique_ptr<store::Store>> idle_;
 };
 
 }  // namespace stickslip::server

@@ -48,7 +48,7 @@ struct WorkerOptions {
   /// Compare ServerOptions::io_nice: whichever of the two is lower gets the CPU first when both
   /// want it (docs/server.md, Load).
   int nice = 0;
-  studies::WriterOptions writer;
+  store::WriterOptions writer;
 
   bool IsValid(std::string* why) const;
 };
@@ -66,7 +66,7 @@ class Worker final : public Scheduler {
   void shutdown();
 
   void notify() override;
-  CancelOutcome cancel(studies::Store& store, const std::string& id) override;
+  CancelOutcome cancel(store::Store& store, const std::string& id) override;
 
   /// Ids of the studies being run now.
   std::vector<std::string> running() const;
@@ -80,8 +80,8 @@ class Worker final : public Scheduler {
   };
   void loop();
   /// Under mu_: the next unclaimed queued/running study, claimed; empty when none.
-  std::string claim_next(studies::Store& store, std::shared_ptr<Claim>* claim);
-  void run_one(studies::Store& store, const std::string& id, const std::shared_ptr<Claim>& claim);
+  std::string claim_next(store::Store& store, std::shared_ptr<Claim>* claim);
+  void run_one(store::Store& store, const std::string& id, const std::shared_ptr<Claim>& claim);
 
   std::filesystem::path db_;
   WorkerOptions options_;

@@ -6,15 +6,15 @@
 
 #include <nlohmann/json.hpp>
 
-#include "stickslip/studies/store.h"
+#include "stickslip/store/store.h"
 
 namespace stickslip::studies {
 
 /// {"design_index", "model", "va_over_vd", "status", "error", "params": {...}, "param_hash",
 ///  "wall_time_s", "t_end", "steps", "rmse", "finished_at", "stages": [{"stage", "t_start", ...}]}
 /// with NaN written as null.
-nlohmann::json run_to_json(const RunRecord& run);
-nlohmann::json study_to_json(const StudyRecord& study, const RunCounts& counts);
+nlohmann::json run_to_json(const store::RunRecord& run);
+nlohmann::json study_to_json(const store::StudyRecord& study, const store::RunCounts& counts);
 
 /// CSV header for runs with `stages` stages: design_index,model,va_over_vd,status,<params...>,
 /// then per stage s: amplitude_s, amplitude_raw_s, mean_force_s, mean_friction_s,
@@ -22,9 +22,9 @@ nlohmann::json study_to_json(const StudyRecord& study, const RunCounts& counts);
 /// param_names are the parameter columns (e.g. from the first run's params).
 std::string runs_csv_header(const std::vector<std::string>& param_names, std::size_t stages);
 /// One CSV line (with "\n") per run, in the header's column order.
-std::string runs_csv_rows(const std::vector<RunRecord>& runs,
+std::string runs_csv_rows(const std::vector<store::RunRecord>& runs,
                           const std::vector<std::string>& param_names, std::size_t stages);
 /// The parameter names of a run's params_json, sorted, "model" excluded.
-std::vector<std::string> param_names_of(const RunRecord& run);
+std::vector<std::string> param_names_of(const store::RunRecord& run);
 
 }  // namespace stickslip::studies

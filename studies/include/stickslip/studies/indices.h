@@ -35,7 +35,7 @@
 
 #include "stickslip/studies/sensitivity.h"
 #include "stickslip/studies/spec.h"
-#include "stickslip/studies/store.h"
+#include "stickslip/store/store.h"
 
 namespace stickslip::studies {
 
@@ -90,7 +90,7 @@ std::string check_output(const StudySpec& spec, const std::string& output);
 /// a study whose design is not sobol/morris, an unknown output name, or invalid options (the
 /// message names the study, the output or the option and its value). Invalid runs do not throw:
 /// they make the affected outputs invalid (see above).
-StudyIndices compute_indices(Store& store, const std::string& study_id,
+StudyIndices compute_indices(store::Store& store, const std::string& study_id,
                              const std::vector<std::string>& outputs = {},
                              const IndicesOptions& options = {});
 
@@ -108,7 +108,7 @@ nlohmann::json indices_to_json(const StudyIndices& indices);
 std::string indices_to_table(const StudyIndices& indices);
 
 /// compute_indices + indices_to_json: the handler body of GET /v1/studies/{id}/indices.
-nlohmann::json indices_json(Store& store, const std::string& study_id,
+nlohmann::json indices_json(store::Store& store, const std::string& study_id,
                             const std::vector<std::string>& outputs = {},
                             const IndicesOptions& options = {});
 

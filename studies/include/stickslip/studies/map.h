@@ -15,7 +15,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "stickslip/studies/store.h"
+#include "stickslip/store/store.h"
 
 namespace stickslip::studies {
 
@@ -52,12 +52,15 @@ struct StudyMap {
 
 /// Builds the map of a stored study. Throws StoreError (unknown study, unreadable store) and
 /// std::invalid_argument when the stored spec no longer parses.
-StudyMap build_map(Store& store, const std::string& study_id);
+StudyMap build_map(store::Store& store, const std::string& study_id);
 
 /// {"study_id", "models", "key_names", "stages", "missing", "failed", "rows": [{"key": {...},
 /// "cells": {"<model>": {"state", "status", "error", "design_index", "amplitude": [..],
 /// "mean_force": [..], "ratio", "rmse", "stage_rmse": [..]}}}]}; NaN is written as null.
 nlohmann::json map_to_json(const StudyMap& map);
+/// The inverse of map_to_json (a client reads GET /v1/studies/{id}/map with it): missing fields
+/// take their defaults, null numbers read back as NaN (or none).
+StudyMap map_from_json(const nlohmann::json& j);
 /// One line per (row, model): key columns, model, state, then per stage amplitude and
 /// mean_force, ratio, rmse, per-stage rmse. Empty fields for missing values.
 std::string map_to_csv(const StudyMap& map);

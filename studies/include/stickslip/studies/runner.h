@@ -22,9 +22,9 @@
 #include <optional>
 #include <string>
 
-#include "stickslip/studies/measured.h"
+#include "stickslip/measured/measured.h"
 #include "stickslip/studies/spec.h"
-#include "stickslip/studies/store.h"
+#include "stickslip/store/store.h"
 
 namespace stickslip::studies {
 
@@ -36,7 +36,7 @@ struct Progress {
 
 struct RunnerOptions {
   int threads = 0;  ///< OpenMP threads; 0 = OpenMP's default (OMP_NUM_THREADS or all cores)
-  WriterOptions writer;
+  store::WriterOptions writer;
   /// Called on the calling thread after each commit and once at the end.
   std::function<void(const Progress&)> on_progress;
   /// When set and true, no new run is started; finished runs are committed and the study is
@@ -67,8 +67,8 @@ struct RunSummary {
 
 /// Computes one run of a study (no store involved): parameters, status, metrics, optional trace
 /// and RMSE against the matching measured run. Never throws: a bad point gives status "invalid".
-RunRecord compute_run(const StudySpec& spec, std::size_t design_index, const std::string& study_id,
-                      const MeasuredDataset* measured = nullptr);
+store::RunRecord compute_run(const StudySpec& spec, std::size_t design_index, const std::string& study_id,
+                      const measured::MeasuredDataset* measured = nullptr);
 
 /// Runs the missing runs of study_id (which must exist in db with this spec) and sets the
 /// study's state: running while working, then succeeded (all runs stored, whatever their
@@ -82,6 +82,6 @@ RunSummary run_study(const std::filesystem::path& db, const std::string& study_i
 /// Creates a study for spec in db, or finds the one created earlier from the same spec
 /// (same name and canonical spec hash) that is not cancelled; returns it. Used by
 /// `stickslip study run` to create-or-resume.
-StudyRecord create_or_find_study(Store& store, const StudySpec& spec);
+store::StudyRecord create_or_find_study(store::Store& store, const StudySpec& spec);
 
 }  // namespace stickslip::studies

@@ -18,7 +18,7 @@
 #include <string>
 #include <vector>
 
-namespace stickslip::sensitivity {
+namespace stickslip::studies::sensitivity {
 
 using Matrix = std::vector<std::vector<double>>;  ///< rows = points, columns = dimensions
 
@@ -77,4 +77,4 @@ SobolIndices ishigami_exact(double a = 7.0, double b = 0.1);
 double sobol_g(const std::vector<double>& x, const std::vector<double>& a);
 SobolIndices sobol_g_exact(const std::vector<double>& a);
 
-}  // namespace stickslip::sensitivity
+}  // namespace stickslip::studies::sensitivity

@@ -32,7 +32,7 @@
 #include <nlohmann/json.hpp>
 
 #include "stickslip/engine/params.h"
-#include "stickslip/studies/json_schema.h"
+#include "stickslip/common/json_schema.h"
 
 namespace stickslip::studies {
 
@@ -112,7 +112,7 @@ class StudySpec {
   /// canonical() as text; indent < 0 gives the compact form (stable: keys sorted).
   std::string canonical_json(int indent = -1) const;
   /// The configuration every run starts from (engine models only).
-  const SimConfig& base_config() const noexcept { return base_; }
+  const engine::SimConfig& base_config() const noexcept { return base_; }
   const Design& design() const noexcept { return design_; }
   const Limits& limits() const noexcept { return limits_; }
   /// Path of the measured dataset manifest as written in the spec, if any.
@@ -130,10 +130,10 @@ class StudySpec {
   /// saltelli_design / morris_design); throws std::logic_error for grid and list designs.
   const std::vector<double>& unit_point(std::size_t index) const;
 
-  /// The configuration of one run. Throws stickslip::InvalidParameter naming the field and the
+  /// The configuration of one run. Throws engine::InvalidParameter naming the field and the
   /// value when the point is invalid (a parameter outside its domain, F_S < F_C, a duration or
   /// step outside the limits, an analytic model), so the runner can store it as an invalid run.
-  SimConfig config_for(const DesignPoint& point) const;
+  engine::SimConfig config_for(const DesignPoint& point) const;
   /// The spec's "F_S_below_F_C" policy.
   FsBelowFc F_S_below_F_C() const noexcept { return fs_below_fc_; }
   /// True when config_for(point) raised F_S to F_C (policy kRaiseToFc, a model that uses F_S,
@@ -161,7 +161,7 @@ class StudySpec {
 
   std::string name_;
   nlohmann::json canonical_;
-  SimConfig base_;
+  engine::SimConfig base_;
   Design design_;
   Limits limits_;
   std::optional<std::string> measured_;
@@ -173,12 +173,12 @@ class StudySpec {
   std::shared_ptr<const std::vector<std::vector<double>>> unit_;  // sampled designs
 
   // The point's configuration before the F_S_below_F_C policy and validation.
-  SimConfig unchecked_config(const DesignPoint& point) const;
+  engine::SimConfig unchecked_config(const DesignPoint& point) const;
 };
 
 struct ParseResult {
   std::optional<StudySpec> spec;  ///< set only when errors is empty
-  std::vector<SpecError> errors;
+  std::vector<common::SpecError> errors;
   bool ok() const noexcept { return spec.has_value(); }
 };
 

@@ -1,0 +1,239 @@
+#pragma once
+// Diagnosis of measured drive-force data (issue 5): calibrate the four base models, pick the
+// best on held-out data, fit every catalogue extension with the base parameters refitted, test
+// each against the refitted base, and name the cause (or "none").
+//
+// Method (details in docs/diagnose.md):
+//  * Data. Each run's samples are decimated to about fit_rate. In every stage the last
+//    holdout_fraction is held out (time blocks within runs); the rest of the first (still)
+//    stage and the first later_stage_fit_span seconds of each later stage are fitted.
+//  * Objective. Sum of squared time-domain residuals measured - simulated - offset over the fit
+//    samples; the offset (one constant per dataset, a sensor bias) is solved in closed form.
+//    Parameters are mapped to a unit box (log scale for scale parameters). Every fit starts on
+//    per-cycle / per-stage features (slip times, stick ramps, stage-2 block means, window mean
+//    and standard deviation; diagnose_features.h), fitted by Levenberg-Marquardt, then refines
+//    in the time domain by Levenberg-Marquardt on the sample residuals (its Jacobian's step
+//    refined when the steps crawl along the slip-timing valley; NLopt's BOBYQA only when LM
+//    makes no step). Extensions start from the base optimum plus
+//    starting values of their own (residual spectrum against x for waviness, phase grids), and
+//    the slip-acting ones (viscous, drive_damping, stribeck_shape, dwell_time) from profile
+//    starts: the base refitted on the features with the extension held at each starting size
+//    (viscous and drive_damping also with v_s held at its nominal value, then freed).
+//  * Scoring. The base and every candidate's final point are scored by one evaluation over
+//    the full span at rtol_score; a candidate whose optimum scores worse on the fit set than
+//    the base point is reported at the base point (it nests the base: at_base_point).
+//  * Whole runs held out (whole_run_holdout). For every run k: the best base and the named
+//    cause's model refitted (time-domain Levenberg-Marquardt, at most max_evals_fold
+//    evaluations, started from their all-run optima) on the fit samples of the other runs, then
+//    scored on every sample of run k (the seed's Table 2 RMSE of a v_a the fit has not seen).
+//    Reported, not used to name the cause.
+//  * Uncertainty. Covariance s^2 (J^T J)^-1 from the finite-difference Jacobian of the
+//    residuals (Eigen), inflated by n / n_eff for correlated residuals.
+//  * Significance. Likelihood ratio n_eff ln(SSE_base / SSE_ext) ~ chi^2(k) with n_eff =
+//    n (1 - rho) / (1 + rho) from the AR(1) coefficient rho of the base residuals; Holm's
+//    correction over the candidates; and a minimum effect size: held-out gain >= min_gain.
+//    Every significant candidate also triggers a base-only refit from its base parameters
+//    (all in parallel); the best refit, if better, becomes the null and the tests are redone,
+//    so an extension never wins only because the base optimisation had stopped early. Among the
+//    significant candidates the cause is the one with the lowest n_eff ln(SSE/n) + 2 k on the
+//    fit set (base n_eff for all).
+
+#include <filesystem>
+#include <functional>
+#include <stdexcept>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "stickslip/engine/params.h"
+#include "stickslip/engine/simulate.h"
+#include "stickslip/measured/measured.h"
+
+namespace stickslip::diagnosis {
+
+struct DiagnoseOptions {
+  std::vector<engine::ModelKind> models = {engine::ModelKind::kDahl, engine::ModelKind::kKarnopp,
+                                   engine::ModelKind::kResetIntegrator, engine::ModelKind::kLuGre};
+  std::vector<engine::ExtensionKind> candidates = engine::extension_catalogue();
+  double fit_rate = 250.0;              ///< decimated samples per second [Hz]
+  double holdout_fraction = 0.3;        ///< last part of every stage held out [-]
+  double later_stage_fit_span = 2.0;    ///< seconds of each later stage fitted [s]
+  double short_window = 3.0;            ///< base models' first fit window [s]
+  double rtol = 1e-5;                   ///< engine accuracy while fitting (rtol = atol [N])
+  /// Engine accuracy of the final scoring (fit-set SSE for the LR test and the information
+  /// criterion, held-out RMSE) of the base and of every candidate's fitted point: one span,
+  /// one code path, one accuracy for all, so that the comparisons are not decided by
+  /// integration error (docs/diagnose.md "Scoring").
+  double rtol_score = 1e-7;
+  int max_evals_base = 70;              ///< objective evaluations per base model
+  int max_evals_candidate = 160;        ///< objective evaluations per extension (phases A + B)
+  int max_evals_profile = 12;           ///< per profile start (base refit at a fixed size)
+  double alpha = 0.01;                  ///< family-wise significance level [-]
+  double min_gain = 0.1;                ///< minimum held-out gain to name a cause [-]
+  bool fit_offset = true;               ///< fit one constant sensor offset [N]
+  bool keep_traces = true;              ///< keep measured/base/extended series for plots
+  /// Leave each whole run out in turn (needs >= 2 runs): refit on the others, score on it.
+  bool whole_run_holdout = true;
+  int max_evals_fold = 30;              ///< evaluations per refit of a left-out-run fold
+  int threads = 0;                      ///< OpenMP threads (0 = default)
+  /// Polled before every model evaluation (from any thread; must be thread-safe). Once it
+  /// returns true, the evaluations fail at once and diagnose throws DiagnosisCancelled. Not part
+  /// of a request: the server's worker sets it to stop a cancelled or interrupted diagnosis.
+  std::function<bool()> stop_requested;
+
+  bool IsValid(std::string* why) const;
+};
+
+/// Thrown by diagnose when DiagnoseOptions::stop_requested returned true.
+struct DiagnosisCancelled : std::runtime_error {
+  DiagnosisCancelled() : std::runtime_error("diagnosis cancelled") {}
+};
+
+struct ParamEstimate {
+  std::string name;
+  double value = 0;   ///< SI
+  double stderr_ = 0; ///< standard error (SI); NaN when the Jacobian is singular
+};
+
+/// Per-stage cycle statistics of a signal (StageAccumulator definitions, simulate.h).
+struct StageScore {
+  int run = 0, stage = 0;
+  double measured_amplitude = 0, model_amplitude = 0;  ///< [N]
+  double measured_mean = 0, model_mean = 0;            ///< [N]
+  double measured_period = 0, model_period = 0;        ///< [s]
+  int measured_slips = 0, model_slips = 0;
+};
+
+struct BaseCalibration {
+  engine::ModelKind model = engine::ModelKind::kLuGre;
+  std::string status = "ok";  ///< "ok" or why the calibration failed
+  std::vector<ParamEstimate> params;
+  double offset = 0;           ///< fitted sensor offset [N]
+  double rmse_fit = 0, rmse_heldout = 0;  ///< [N]
+  std::vector<double> rmse_run;  ///< whole-run RMSE per run (seed eq. 23) [N]
+  double aic = 0;              ///< n_eff ln(SSE/n) + 2 k on the fit set
+  int evals = 0;
+  std::vector<StageScore> stages;
+};
+
+struct CandidateResult {
+  engine::ExtensionKind kind = engine::ExtensionKind::kNone;
+  std::string status = "ok";
+  std::vector<ParamEstimate> params;       ///< extension parameters (SI), size parameter first
+  std::vector<ParamEstimate> base_params;  ///< refitted base parameters
+  double offset = 0;
+  double rmse_fit = 0, rmse_heldout = 0;   ///< [N]
+  double gain = 0;         ///< 1 - rmse_heldout / base rmse_heldout
+  double aic = 0;          ///< on the same footing as the base's
+  double lr = 0;           ///< likelihood-ratio statistic against the refitted base
+  int dof = 0;             ///< extra parameters
+  double p_value = 1, p_holm = 1;
+  bool significant = false;  ///< p_holm < alpha and gain >= min_gain
+  /// The candidate's own optimum scored worse than the base it nests, so it is reported at
+  /// the base point (its extension at the neutral size): an extended model is never worse
+  /// than its base.
+  bool at_base_point = false;
+  int evals = 0;
+};
+
+/// Mean residual in equal-count bins of one variable, for the base model and the extended one
+/// (the named cause, else the best candidate; empty when there is none).
+struct ResidualProfile {
+  std::string variable;  ///< "velocity" [m/s] (sliding samples, |x'| > 1e-4 m/s),
+                         ///< "stick_time" [s], "position" [m]
+  std::vector<double> center;             ///< mean of the variable in the bin
+  std::vector<double> base, extended;     ///< mean residual [N]
+  std::vector<int> count;                 ///< samples in the bin
+};
+
+/// Least-squares amplitude of a sine in the residuals against one coordinate (position x or
+/// time t), on a log grid of periods; base and extended model as in ResidualProfile.
+struct ResidualSpectrum {
+  std::vector<double> period;             ///< wavelength [m] or period [s]
+  std::vector<double> base, extended;     ///< amplitude [N]
+};
+
+struct Evidence {
+  double residual_rms = 0;        ///< [N]
+  double rho = 0;                 ///< lag-1 autocorrelation of fit residuals [-]
+  double n = 0, n_eff = 0;        ///< fit samples, effective samples
+  double corr_velocity = 0;       ///< corr(residual, simulated x') [-]
+  double corr_position = 0;       ///< corr(residual, simulated x) [-]
+  double corr_stick_time = 0;     ///< corr(residual, time since the body last slid) [-]
+  double trend_per_m = 0;         ///< residual slope against x [N/m]
+  double wavelength = 0;          ///< strongest residual period along x [m]
+  double wavelength_amplitude = 0;  ///< its amplitude [N]
+  double wavelength_ratio = 0;    ///< its power over the median power of the scan [-]
+  double wavelength_phase = 0;    ///< phase of the fitted sin(2 pi x / lambda + phase) [rad]
+  double frequency = 0;           ///< strongest residual frequency against t [Hz]
+  double frequency_amplitude = 0; ///< its amplitude [N]
+  double frequency_ratio = 0;     ///< its power over the median power of the scan [-]
+  std::vector<ResidualProfile> profiles;  ///< against velocity, stick time, position
+  ResidualSpectrum x_spectrum, t_spectrum;
+  std::vector<double> stage_mean_residual;  ///< per run and stage, run-major [N]
+  std::vector<double> stage_mean_residual_extended;  ///< the same for the extended model [N]
+  std::vector<double> stage_va;             ///< the matching v_a [m/s]
+  std::vector<StageScore> stages;           ///< base model's per-cycle scores
+};
+
+/// Series at the decimated sample times, for plots.
+struct RunSeries {
+  std::string name;
+  std::vector<double> t, measured, base, extended;  ///< extended: empty when cause is none
+};
+
+/// One whole run left out (DiagnoseOptions::whole_run_holdout): the base model and the
+/// extended one (the named cause; the base itself when the cause is "none") refitted on the
+/// other runs' fit samples and scored on every sample of this run.
+struct RunHoldout {
+  std::string run;
+  double va = 0;                                 ///< the run's v_a [m/s]
+  std::string status = "ok";                     ///< or why a refit failed
+  double rmse_base = 0, rmse_extended = 0;       ///< over the whole run [N]
+  double gain = 0;                               ///< 1 - extended / base [-]
+  std::vector<StageScore> stages_base, stages_extended;  ///< per-stage cycle statistics
+  int evals = 0;
+};
+
+struct Diagnosis {
+  std::string dataset;
+  engine::ModelKind base_model = engine::ModelKind::kLuGre;
+  std::vector<ParamEstimate> base_params;
+  std::string cause = "none";
+  std::string best_candidate;  ///< lowest held-out RMSE, significant or not
+  double rmse_base_heldout = 0, rmse_extended_heldout = 0, gain = 0;  ///< [N], [N], [-]
+  std::vector<std::string> run_names;
+  std::vector<double> run_va;
+  std::vector<BaseCalibration> calibrations;
+  std::vector<CandidateResult> candidates;
+  Evidence evidence;
+  std::vector<RunSeries> series;
+  /// Whole runs held out, one per run (empty with one run or whole_run_holdout off); pooled
+  /// RMSE over every left-out sample and its gain.
+  std::vector<RunHoldout> run_holdouts;
+  double rmse_base_heldout_runs = 0, rmse_extended_heldout_runs = 0, gain_heldout_runs = 0;
+  double seconds = 0;  ///< wall time [s]
+  int evaluations = 0;
+  DiagnoseOptions options;
+};
+
+/// The whole diagnosis as a pure function (no files, no globals). Throws std::invalid_argument
+/// for invalid options or a dataset it cannot use (naming the field and value).
+Diagnosis diagnose(const measured::MeasuredDataset& data, const DiagnoseOptions& options = {});
+
+/// diagnosis.json content (fields of issue 5; NaN/Inf as null). series are not included.
+/// Follows schemas/diagnosis.schema.json.
+nlohmann::json to_json(const Diagnosis& d);
+/// The text of schemas/diagnosis.schema.json (embedded at build time).
+std::string_view diagnosis_schema_text() noexcept;
+/// A short human-readable summary.
+std::string summary_text(const Diagnosis& d);
+/// Writes dir/diagnosis.json, the plot data and, when gnuplot is on PATH, PNG plots: per run
+/// (runK.png) measured vs base vs extended and the residuals; evidence.png, the base's and the
+/// extended model's residuals against velocity, stick time and position, their spectra against
+/// x and t, and the stage mean residual against v_a, the panel of the named cause marked.
+/// Returns the files written. Plot failures are reported in the returned list, never thrown.
+std::vector<std::string> write_report(const Diagnosis& d, const std::filesystem::path& dir);
+
+}  // namespace stickslip::diagnosis
