@@ -1,0 +1,255 @@
+// The schema of a stickslip database (version kStoreSchemaVersion; docs/store.md), creating it in
+// an empty file and migrating an older version step by step.
+#include <array>
+#include <string>
+#include <utility>
+
+#include "connection.h"
+
+namespace stickslip::store::detail {
+namespace {
+
+// ---------------------------------------------------------------------------------------------
+// Schema (version kStoreSchemaVersion). Keep docs/store.md in step with this text.
+// ---------------------------------------------------------------------------------------------
+
+constexpr const char* kSchemaSql = R"sql(
+CREATE TABLE meta (
+  key   TEXT PRIMARY KEY NOT NULL,
+  value TEXT NOT NULL
+);
+
+CREATE TABLE studies (
+  id              TEXT PRIMARY KEY NOT NULL,
+  name            TEXT NOT NULL,
+  spec_json       TEXT NOT NULL,
+  spec_hash       TEXT NOT NULL,
+  state           TEXT NOT NULL DEFAULT 'queued'
+                  CHECK (state IN ('queued', 'running', 'succeeded', 'failed', 'cancelled')),
+  total_runs      INTEGER NOT NULL CHECK (total_runs >= 0),
+  created_at      TEXT NOT NULL,
+  started_at      TEXT,
+  finished_at     TEXT,
+  error           TEXT,
+  idempotency_key TEXT UNIQUE,
+  request_hash    TEXT
+);
+
+CREATE TABLE runs (
+  study_id     TEXT NOT NULL REFERENCES studies (id) ON DELETE CASCADE,
+  design_index INTEGER NOT NULL CHECK (design_index >= 0),
+  param_hash   TEXT NOT NULL,
+  params_json  TEXT NOT NULL,
+  model        TEXT,
+  va_over_vd   REAL,
+  status       TEXT NOT NULL CHECK (status IN ('ok', 'diverged', 'invalid')),
+  error        TEXT,
+  wall_time_s  REAL,
+  t_end        REAL,
+  steps        INTEGER NOT NULL,
+  rmse         REAL,
+  finished_at  TEXT NOT NULL,
+  PRIMARY KEY (study_id, design_index)
+);
+CREATE INDEX runs_study_model_va ON runs (study_id, model, va_over_vd);
+CREATE INDEX runs_va_over_vd ON runs (va_over_vd);
+CREATE INDEX runs_study_status ON runs (study_id, status);
+CREATE INDEX runs_param_hash ON runs (param_hash);
+
+CREATE TABLE stage_metrics (
+  study_id      TEXT NOT NULL,
+  design_index  INTEGER NOT NULL,
+  stage         INTEGER NOT NULL CHECK (stage >= 1),
+  t_start       REAL,
+  t_end         REAL,
+  amplitude     REAL,
+  amplitude_raw REAL,
+  mean_force    REAL,
+  mean_friction REAL,
+  slip_events   INTEGER NOT NULL,
+  mean_period   REAL,
+  rmse          REAL,
+  PRIMARY KEY (study_id, design_index, stage),
+  FOREIGN KEY (study_id, design_index) REFERENCES runs (study_id, design_index)
+    ON DELETE CASCADE
+);
+
+CREATE TABLE traces (
+  study_id     TEXT NOT NULL,
+  design_index INTEGER NOT NULL,
+  n_samples    INTEGER NOT NULL CHECK (n_samples > 0),
+  t            BLOB NOT NULL CHECK (length(t) = 8 * n_samples),
+  F_d          BLOB NOT NULL CHECK (length(F_d) = 8 * n_samples),
+  F_f          BLOB NOT NULL CHECK (length(F_f) = 8 * n_samples),
+  x            BLOB NOT NULL CHECK (length(x) = 8 * n_samples),
+  v            BLOB NOT NULL CHECK (length(v) = 8 * n_samples),
+  s            BLOB NOT NULL CHECK (length(s) = 8 * n_samples),
+  PRIMARY KEY (study_id, design_index),
+  FOREIGN KEY (study_id, design_index) REFERENCES runs (study_id, design_index)
+    ON DELETE CASCADE
+);
+
+CREATE VIEW v_run_metrics AS
+SELECT r.study_id, r.design_index, r.model, r.va_over_vd, r.status, r.error, r.param_hash,
+       r.params_json, r.wall_time_s, r.t_end AS run_t_end, r.steps, r.rmse AS run_rmse,
+       m.stage, m.t_start, m.t_end, m.amplitude, m.amplitude_raw, m.mean_force,
+       m.mean_friction, m.slip_events, m.mean_period, m.rmse
+FROM runs AS r
+LEFT JOIN stage_metrics AS m
+  ON m.study_id = r.study_id AND m.design_index = r.design_index;
+
+CREATE VIEW v_map AS
+SELECT study_id, design_index, model, va_over_vd, stage, amplitude, mean_force, status
+FROM v_run_metrics;
+
+CREATE VIEW v_study_progress AS
+SELECT s.id AS study_id, s.state, s.total_runs AS total,
+       COUNT(r.design_index) AS done,
+       COALESCE(SUM(r.status = 'ok'), 0) AS ok,
+       COALESCE(SUM(r.status <> 'ok'), 0) AS failed
+FROM studies AS s
+LEFT JOIN runs AS r ON r.study_id = s.id
+GROUP BY s.id;
+)sql";
+
+// Added in schema version 2 (a version-1 database gets it by migrate_step on its first
+// read-write open). A diagnosis is one job: the request (manifest + CSV contents) in, the
+// diagnosis.json document out.
+constexpr const char* kDiagnosesSql = R"sql(
+CREATE TABLE diagnoses (
+  id              TEXT PRIMARY KEY NOT NULL,
+  name            TEXT NOT NULL,
+  request_json    TEXT NOT NULL,
+  request_hash    TEXT NOT NULL,
+  state           TEXT NOT NULL DEFAULT 'queued'
+                  CHECK (state IN ('queued', 'running', 'succeeded', 'failed', 'cancelled')),
+  created_at      TEXT NOT NULL,
+  started_at      TEXT,
+  finished_at     TEXT,
+  error           TEXT,
+  result_json     TEXT,
+  idempotency_key TEXT UNIQUE
+);
+CREATE INDEX diagnoses_state ON diagnoses (state);
+)sql";
+
+// Added in schema version 3 (a version-2 database gets it by migrate_to_3; a new database runs
+// the same statements, so a migrated file and a new one have the same schema). Each study row
+// carries its run counters, kept by triggers in the transaction that writes or removes a run, so
+// that v_study_progress (polled by every GET /v1/studies/{id}) reads one row instead of
+// scanning all the study's runs: 1.9 ms for 3072 runs, growing linearly, with the version-2
+// aggregate view (measured 2026-11-22).
+constexpr const char* kRunCountersSql = R"sql(
+ALTER TABLE studies ADD COLUMN runs_done INTEGER NOT NULL DEFAULT 0 CHECK (runs_done >= 0);
+ALTER TABLE studies ADD COLUMN runs_ok INTEGER NOT NULL DEFAULT 0 CHECK (runs_ok >= 0);
+ALTER TABLE studies ADD COLUMN runs_failed INTEGER NOT NULL DEFAULT 0 CHECK (runs_failed >= 0);
+UPDATE studies SET
+  runs_done = (SELECT COUNT(*) FROM runs WHERE runs.study_id = studies.id),
+  runs_ok = (SELECT COUNT(*) FROM runs WHERE runs.study_id = studies.id AND runs.status = 'ok'),
+  runs_failed = (SELECT COUNT(*) FROM runs WHERE runs.study_id = studies.id AND runs.status <> 'ok');
+
+CREATE TRIGGER runs_count_insert AFTER INSERT ON runs BEGIN
+  UPDATE studies SET runs_done = runs_done + 1,
+                     runs_ok = runs_ok + (NEW.status = 'ok'),
+                     runs_failed = runs_failed + (NEW.status <> 'ok')
+  WHERE id = NEW.study_id;
+END;
+CREATE TRIGGER runs_count_delete AFTER DELETE ON runs BEGIN
+  UPDATE studies SET runs_done = runs_done - 1,
+                     runs_ok = runs_ok - (OLD.status = 'ok'),
+                     runs_failed = runs_failed - (OLD.status <> 'ok')
+  WHERE id = OLD.study_id;
+END;
+CREATE TRIGGER runs_count_update AFTER UPDATE OF study_id, status ON runs BEGIN
+  UPDATE studies SET runs_done = runs_done - 1,
+                     runs_ok = runs_ok - (OLD.status = 'ok'),
+                     runs_failed = runs_failed - (OLD.status <> 'ok')
+  WHERE id = OLD.study_id;
+  UPDATE studies SET runs_done = runs_done + 1,
+                     runs_ok = runs_ok + (NEW.status = 'ok'),
+                     runs_failed = runs_failed + (NEW.status <> 'ok')
+  WHERE id = NEW.study_id;
+END;
+
+DROP VIEW v_study_progress;
+CREATE VIEW v_study_progress AS
+SELECT id AS study_id, state, total_runs AS total, runs_done AS done, runs_ok AS ok,
+       runs_failed AS failed
+FROM studies;
+)sql";
+
+std::string read_schema_version(const Connection& conn) {
+  Statement st(conn, "SELECT value FROM meta WHERE key = 'schema_version'",
+               "reading meta.schema_version");
+  if (!st.step()) fail(conn.path(), "corrupt stickslip database: meta has no schema_version");
+  return st.text(0);
+}
+
+/// One migration step from version `from` to from + 1 in one write transaction. Re-checks the
+/// version inside the transaction, so two processes opening the same old file at once migrate
+/// it once. Every existing table and row is kept as it is.
+///  1 -> 2: adds the diagnoses table.
+///  2 -> 3: adds the run counters of each study (filled from its runs), their triggers, and
+///          v_study_progress reading them.
+void migrate_step(const Connection& conn, int from) {
+  const std::string step = "from version " + std::to_string(from) + " to " + std::to_string(from + 1);
+  Transaction tx(conn, Transaction::Kind::kWrite, "migrating the schema " + step);
+  if (read_schema_version(conn) == std::to_string(from)) {
+    if (from == 1) conn.exec(kDiagnosesSql, "creating the diagnoses table (schema version 2)");
+    else conn.exec(kRunCountersSql, "adding the run counters (schema version 3)");
+    conn.exec(("UPDATE meta SET value = '" + std::to_string(from + 1) +
+               "' WHERE key = 'schema_version'").c_str(),
+              "writing meta.schema_version");
+    Statement st(conn, "INSERT OR REPLACE INTO meta (key, value) VALUES ('migrated_at', ?1)",
+                 "writing meta.migrated_at");
+    st.bind_text(1, utc_now_iso8601()).run();
+  }
+  tx.commit("the schema migration " + step);
+}
+
+void write_schema(const Connection& conn) {
+  conn.exec(kSchemaSql, "creating the schema");
+  conn.exec(kDiagnosesSql, "creating the diagnoses table");
+  conn.exec(kRunCountersSql, "adding the run counters");
+  conn.exec(("PRAGMA application_id = " + std::to_string(kStoreApplicationId)).c_str(),
+            "setting the application_id");
+  Statement ins(conn, "INSERT INTO meta (key, value) VALUES (?1, ?2)", "writing meta");
+  const std::array<std::pair<const char*, std::string>, 3> rows{{
+      {"schema_version", std::to_string(kStoreSchemaVersion)},
+      {"application", "stickslip"},
+      {"created_at", utc_now_iso8601()},
+  }};
+  for (const auto& [key, value] : rows) ins.reset().bind_text(1, key).bind_text(2, value).run();
+}
+
+}  // namespace
+
+/// Accepts this build's version; a read-write open migrates an older database step by step
+/// (see migrate_step), a read-only open reads it as it is (version 1: studies and runs only;
+/// versions 1 and 2 count runs with their aggregate view).
+void require_schema_version(const Connection& conn, Store::Mode mode) {
+  std::string value = read_schema_version(conn);
+  for (int from = 1; from < kStoreSchemaVersion; ++from) {
+    if (value != std::to_string(from)) continue;
+    if (mode == Store::Mode::kReadOnly) return;
+    migrate_step(conn, from);
+    value = read_schema_version(conn);
+  }
+  if (value != std::to_string(kStoreSchemaVersion))
+    fail(conn.path(), "stickslip schema_version " + value + " is not supported by this build "
+                          "(it reads version " + std::to_string(kStoreSchemaVersion) +
+                          ", and migrates versions 1 to " +
+                          std::to_string(kStoreSchemaVersion - 1) + ")");
+}
+
+/// Initialises an empty database. Re-checks inside the write transaction, so two processes
+/// creating the same file at once end up with one schema.
+void initialise(const Connection& conn) {
+  Transaction tx(conn, Transaction::Kind::kWrite, "initialising the database");
+  const DbIdentity id = read_identity(conn);
+  if (id.empty()) write_schema(conn);
+  else if (!id.ours()) fail_foreign(conn.path(), id);
+  tx.commit("the new schema");
+}
+
+}  // namespace stickslip::store::detail
