@@ -7,7 +7,7 @@
 //   diagnose_suite [--full | --seed-conditions] [--verbose] [--seeds N] [--first-seed K] [--case NAME]...
 //   --full: the full datasets (3 runs x 7 s at 2 kHz, every base model); --seed-conditions: the
 //   seed's conditions for every case (3 runs x 20 s, v_a = 0, 1.1, 4 mm/s, LuGre base);
-//   default: the CI datasets (SuiteDatasets in stickslip/studies/diagnose_suite.h).
+//   default: the CI datasets (SuiteDatasets in stickslip/diagnosis/diagnose_suite.h).
 #include <algorithm>
 #include <chrono>
 #include <cstdio>

@@ -1,5 +1,5 @@
 // `stickslip diagnose MANIFEST --out DIR`: calibrate the four models on measured data, test
-// every catalogue extension, name the cause (studies/include/stickslip/studies/diagnose.h).
+// every catalogue extension, name the cause (diagnosis/include/stickslip/diagnosis/diagnose.h).
 // With --server URL the same diagnosis runs as a job on stickslipd (cmd_diagnosis_remote.cpp).
 #include <iostream>
 

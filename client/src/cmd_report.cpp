@@ -1,4 +1,4 @@
-// `stickslip report`: the nightly report (studies/include/stickslip/studies/report.h,
+// `stickslip report`: the nightly report (reports/include/stickslip/reports/report.h,
 // docs/report.md).
 #include <csignal>
 #include <fstream>

@@ -1,5 +1,5 @@
 // `stickslip synth`: a synthetic measured dataset (manifest + CSVs) from any model with any
-// catalogue effect (studies/include/stickslip/studies/synth.h).
+// catalogue effect (measured/include/stickslip/measured/synth.h).
 #include <cstdlib>
 #include <iostream>
 

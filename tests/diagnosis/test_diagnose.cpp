@@ -1,7 +1,7 @@
 // Synthetic measured data and the diagnosis.
 //
 // Synth: round trip through load_measured and the noise model's statistics.
-// Hidden-effect suite (issue 5; cases in studies/src/diagnose_suite.cpp): every catalogue
+// Hidden-effect suite (issue 5; cases in diagnosis/src/diagnose_suite.cpp): every catalogue
 // effect hidden in LuGre data at a moderate size must be named as the cause, with a positive
 // held-out gain and its size parameter recovered within the case's tolerance (30-40 %); clean
 // data (white and AR(1) noise, base parameters 5-10 % off Table 1) must give "none"; an effect

@@ -1,4 +1,4 @@
-// The cycle-feature objective (studies/src/diagnose_features.h) that starts every fit of the
+// The cycle-feature objective (diagnosis/include/stickslip/diagnosis/detail/diagnose_features.h) that starts every fit of the
 // diagnosis. After a long still stage the simulated stick-slip cycle reaches the switch at a
 // phase that turns through whole cycles as the parameters change (a 1 % change of F_S moves it
 // by about one cycle after 10 s), and the transient of the next stage follows that phase. So

@@ -1,4 +1,4 @@
-// The diagnosis' Levenberg-Marquardt (studies/src/diagnose_fit.cpp) on the seed's long runs.
+// The diagnosis' Levenberg-Marquardt (diagnosis/src/diagnose_fit.cpp) on the seed's long runs.
 // Over a 10 s still stage (about 30 slips) the slip timing makes both objectives narrow curved
 // valleys: a forward-difference Jacobian over a step wider than the valley is a biased secant,
 // every Gauss-Newton step comes out short, and the search crawls along the valley instead of

@@ -1,5 +1,5 @@
 // Why the normal_load_modulation candidate is fitted in the components eta_v = eta sin(phi)
-// and eta_q = eta cos(phi) (studies/src/diagnose_load.h): below the vibration frequency F_d
+// and eta_q = eta cos(phi) (diagnosis/include/stickslip/diagnosis/detail/diagnose_load.h): below the vibration frequency F_d
 // shows only the mean level of a vibrating stage, linear in (eta_v, eta_q), mostly through
 // eta_v. Engine checks on the hidden-effect suite's LuGre parameters, and the delta method of
 // the derived (eta, phi).

@@ -1,4 +1,4 @@
-// Profile starts of the slip-acting candidates (studies/src/diagnose_candidate.cpp, candidate_starts):
+// Profile starts of the slip-acting candidates (diagnosis/src/diagnose_candidate.cpp, candidate_starts):
 // the base parameters refitted on the cycle features with the extension's size held, on a size
 // grid refined by bisection. Over the seed's 10 s still stages the stick time hardly varies, so
 // a dwell term A ln(1 + t_stick/tau) is nearly a constant added to F_S: the feature objective

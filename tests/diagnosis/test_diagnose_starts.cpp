@@ -1,4 +1,4 @@
-// Waviness starting values from the measured stick-slip peaks (studies/src/diagnose_starts.h):
+// Waviness starting values from the measured stick-slip peaks (diagnosis/include/stickslip/diagnosis/detail/diagnose_starts.h):
 // the scan must find a hidden wave's length, size and phase from the data alone, before any
 // model is fitted, and must decline when there are too few distinct stick positions.
 #include <gtest/gtest.h>

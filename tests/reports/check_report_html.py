@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Checks a stickslip report page (called by tests/studies/test_report.cpp).
+"""Checks a stickslip report page (called by tests/reports/test_report.cpp).
 
 Usage: check_report_html.py DIR/index.html
 

@@ -1,5 +1,5 @@
 #pragma once
-// The hidden-effect suite of issue 5, shared by the tests (tests/studies/test_diagnose.cpp) and
+// The hidden-effect suite of issue 5, shared by the tests (tests/diagnosis/test_diagnose.cpp) and
 // the confusion-table program (bench/diagnose_suite.cpp): synthetic LuGre datasets with one
 // catalogue effect hidden at a stated size (or none), and what the diagnosis must say.
 //

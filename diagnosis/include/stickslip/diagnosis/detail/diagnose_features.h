@@ -28,7 +28,7 @@
 // phase_shift; RunData::anchor_tau): the next stage's transient starts from the state the
 // cycle is in at the switch, and after a long still stage that phase turns through whole cycles
 // as the parameters change (1 % of F_S is about one cycle after 10 s), which made the objective
-// ripple and the fits stop in a ripple (tests/studies/test_diagnose_features.cpp).
+// ripple and the fits stop in a ripple (tests/diagnosis/test_diagnose_features.cpp).
 
 #include <vector>
 
