@@ -282,9 +282,9 @@ TEST(Report, HtmlIsWellFormedAndEveryPlotExists) {
   EXPECT_NE(html.find("Changed since last night"), std::string::npos);
   EXPECT_NE(html.find("Failed runs in total"), std::string::npos);
   // Strict tag balance, embedded SVGs that decode and parse as XML, and existing local links,
-  // checked with Python's html.parser and xml.dom (tests/studies/check_report_html.py).
+  // checked with Python's html.parser and xml.dom (tests/reports/check_report_html.py).
   if (std::system("python3 --version > /dev/null 2>&1") != 0) GTEST_SKIP() << "no python3";
-  const std::string cmd = "python3 " STICKSLIP_SOURCE_DIR "/tests/studies/check_report_html.py '" +
+  const std::string cmd = "python3 " STICKSLIP_SOURCE_DIR "/tests/reports/check_report_html.py '" +
                           a.html.string() + "' > '" + (dir / "check.out").string() + "'";
   EXPECT_EQ(std::system(cmd.c_str()), 0) << "see stderr above";
   EXPECT_EQ(std::stoi(slurp(dir / "check.out")), 7);
