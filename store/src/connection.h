@@ -116,7 +116,9 @@ class Statement {
   Statement& bind_opt_text(int i, const std::optional<std::string>& v) {
     return v ? bind_text(i, std::string_view(*v)) : bind_null(i);
   }
+  /// An empty v is a zero-length blob, not NULL (sqlite3_bind_blob64 of a null pointer is NULL).
   Statement& bind_blob(int i, const std::vector<unsigned char>& v) {
+    if (v.empty()) return check(sqlite3_bind_zeroblob64(stmt_.get(), i, 0));
     return check(sqlite3_bind_blob64(stmt_.get(), i, v.data(), v.size(), SQLITE_TRANSIENT));
   }
   Statement& bind_null(int i) { return check(sqlite3_bind_null(stmt_.get(), i)); }

@@ -1,4 +1,7 @@
 // Diagnosis records of the store (store.h).
+#include <bit>
+#include <cstdint>
+#include <limits>
 #include <string>
 #include <utility>
 
@@ -115,20 +118,124 @@ bool Store::requeue_diagnosis(const std::string& id) {
   return impl_->conn.changes() > 0;
 }
 
+namespace {
+
+/// n doubles as n little-endian IEEE-754 binary64 values (as encode_column).
+std::vector<unsigned char> encode_doubles(const std::vector<double>& v) {
+  std::vector<unsigned char> out(v.size() * 8);
+  for (std::size_t i = 0; i < v.size(); ++i) {
+    const auto bits = std::bit_cast<std::uint64_t>(v[i]);
+    for (std::size_t k = 0; k < 8; ++k) out[8 * i + k] = static_cast<unsigned char>(bits >> (8 * k));
+  }
+  return out;
+}
+
+std::vector<double> decode_doubles(const std::vector<unsigned char>& bytes) {
+  std::vector<double> out(bytes.size() / 8);
+  for (std::size_t i = 0; i < out.size(); ++i) {
+    std::uint64_t bits = 0;
+    for (std::size_t k = 0; k < 8; ++k) bits |= std::uint64_t{bytes[8 * i + k]} << (8 * k);
+    out[i] = std::bit_cast<double>(bits);
+  }
+  return out;
+}
+
+}  // namespace
+
 bool Store::finish_diagnosis(const std::string& id, StudyState state,
                              const std::optional<std::string>& result_json,
-                             const std::optional<std::string>& error) {
+                             const std::optional<std::string>& error,
+                             const std::vector<DiagnosisTrace>& traces) {
   if (state != StudyState::kSucceeded && state != StudyState::kFailed)
     fail(path(), "finishing diagnosis " + id + ": the state must be succeeded or failed");
   if (result_json && !is_json_object(*result_json))
     fail(path(), "finishing diagnosis " + id + ": result_json is not a JSON object");
+  for (std::size_t k = 0; k < traces.size(); ++k) {
+    const auto& tr = traces[k];
+    const std::size_t n = tr.t.size();
+    if (tr.measured.size() != n || tr.base.size() != n ||
+        (!tr.extended.empty() && tr.extended.size() != n))
+      fail(path(), "finishing diagnosis " + id + ": trace " + std::to_string(k) + " (run '" +
+                       tr.run + "') has series of different lengths (t " + std::to_string(n) +
+                       ", measured " + std::to_string(tr.measured.size()) + ", base " +
+                       std::to_string(tr.base.size()) + ", extended " +
+                       std::to_string(tr.extended.size()) + ")");
+  }
+  const std::string doing = "finishing diagnosis " + id;
+  Transaction tx(impl_->conn, Transaction::Kind::kWrite, doing);
   Statement st(impl_->conn,
                "UPDATE diagnoses SET state = ?1, result_json = ?2, error = ?3, finished_at = ?4 "
                "WHERE id = ?5 AND state IN ('queued', 'running')",
-               "finishing diagnosis " + id);
+               doing);
   st.bind_text(1, to_string(state)).bind_opt_text(2, result_json).bind_opt_text(3, error);
   st.bind_text(4, utc_now_iso8601()).bind_text(5, id).run();
-  return impl_->conn.changes() > 0;
+  const bool finished = impl_->conn.changes() > 0;
+  if (finished && !traces.empty()) {
+    Statement del(impl_->conn, "DELETE FROM diagnosis_traces WHERE diagnosis_id = ?1", doing);
+    del.bind_text(1, id).run();
+    Statement ins(impl_->conn,
+                  "INSERT INTO diagnosis_traces (diagnosis_id, run_index, run, n_samples, t, "
+                  "measured, base, extended) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8)",
+                  doing);
+    for (std::size_t k = 0; k < traces.size(); ++k) {
+      const auto& tr = traces[k];
+      ins.bind_text(1, id).bind_int(2, static_cast<std::int64_t>(k)).bind_text(3, tr.run);
+      ins.bind_int(4, static_cast<std::int64_t>(tr.t.size()));
+      ins.bind_blob(5, encode_doubles(tr.t)).bind_blob(6, encode_doubles(tr.measured));
+      ins.bind_blob(7, encode_doubles(tr.base)).bind_blob(8, encode_doubles(tr.extended));
+      ins.run();
+    }
+  }
+  tx.commit(doing);
+  return finished;
 }
+
+std::vector<DiagnosisTraceInfo> Store::list_diagnosis_traces(const std::string& id) {
+  // The first and last time are the first and last 8 bytes of t (no need to read the series).
+  Statement st(impl_->conn,
+               "SELECT run_index, run, n_samples, substr(t, 1, 8), substr(t, -8, 8), "
+               "length(extended) > 0 FROM diagnosis_traces WHERE diagnosis_id = ?1 "
+               "ORDER BY run_index",
+               "listing the traces of diagnosis " + id);
+  st.bind_text(1, id);
+  std::vector<DiagnosisTraceInfo> out;
+  while (st.step()) {
+    DiagnosisTraceInfo info;
+    info.run_index = st.int64(0);
+    info.run = st.text(1);
+    info.samples = st.int64(2);
+    const auto first = decode_doubles(st.blob(3)), last = decode_doubles(st.blob(4));
+    const double nan = std::numeric_limits<double>::quiet_NaN();
+    info.t_first = info.samples > 0 && first.size() == 1 ? first[0] : nan;
+    info.t_last = info.samples > 0 && last.size() == 1 ? last[0] : nan;
+    info.has_extended = st.int64(5) != 0;
+    out.push_back(std::move(info));
+  }
+  return out;
+}
+
+std::optional<DiagnosisTrace> Store::get_diagnosis_trace(const std::string& id,
+                                                         std::int64_t run_index) {
+  const std::string doing =
+      "reading trace " + std::to_string(run_index) + " of diagnosis " + id;
+  Statement st(impl_->conn,
+               "SELECT run, n_samples, t, measured, base, extended FROM diagnosis_traces "
+               "WHERE diagnosis_id = ?1 AND run_index = ?2",
+               doing);
+  st.bind_text(1, id).bind_int(2, run_index);
+  if (!st.step()) return std::nullopt;
+  DiagnosisTrace tr;
+  tr.run = st.text(0);
+  const auto n = static_cast<std::size_t>(st.int64(1));
+  tr.t = decode_doubles(st.blob(2));
+  tr.measured = decode_doubles(st.blob(3));
+  tr.base = decode_doubles(st.blob(4));
+  tr.extended = decode_doubles(st.blob(5));
+  if (tr.t.size() != n || tr.measured.size() != n || tr.base.size() != n ||
+      (!tr.extended.empty() && tr.extended.size() != n))
+    fail(path(), "corrupt " + doing + ": column length mismatch");
+  return tr;
+}
+
 
 }  // namespace stickslip::store

@@ -178,6 +178,24 @@ SELECT id AS study_id, state, total_runs AS total, runs_done AS done, runs_ok AS
 FROM studies;
 )sql";
 
+// Added in schema version 4 (a version-3 database gets it by migrate_step). The series of a
+// diagnosis that `stickslip diagnose` plots per run (runK.png), stored with its outcome so that
+// GET /v1/diagnoses/{id}/traces can serve them: each column n little-endian binary64 values like
+// the traces table; extended is empty (zero bytes) when the diagnosis has no extended model.
+constexpr const char* kDiagnosisTracesSql = R"sql(
+CREATE TABLE diagnosis_traces (
+  diagnosis_id TEXT NOT NULL REFERENCES diagnoses (id) ON DELETE CASCADE,
+  run_index    INTEGER NOT NULL CHECK (run_index >= 0),
+  run          TEXT NOT NULL,
+  n_samples    INTEGER NOT NULL CHECK (n_samples >= 0),
+  t            BLOB NOT NULL CHECK (length(t) = 8 * n_samples),
+  measured     BLOB NOT NULL CHECK (length(measured) = 8 * n_samples),
+  base         BLOB NOT NULL CHECK (length(base) = 8 * n_samples),
+  extended     BLOB NOT NULL CHECK (length(extended) IN (0, 8 * n_samples)),
+  PRIMARY KEY (diagnosis_id, run_index)
+);
+)sql";
+
 std::string read_schema_version(const Connection& conn) {
   Statement st(conn, "SELECT value FROM meta WHERE key = 'schema_version'",
                "reading meta.schema_version");
@@ -191,12 +209,14 @@ std::string read_schema_version(const Connection& conn) {
 ///  1 -> 2: adds the diagnoses table.
 ///  2 -> 3: adds the run counters of each study (filled from its runs), their triggers, and
 ///          v_study_progress reading them.
+///  3 -> 4: adds the diagnosis_traces table (empty: older diagnoses have no stored traces).
 void migrate_step(const Connection& conn, int from) {
   const std::string step = "from version " + std::to_string(from) + " to " + std::to_string(from + 1);
   Transaction tx(conn, Transaction::Kind::kWrite, "migrating the schema " + step);
   if (read_schema_version(conn) == std::to_string(from)) {
     if (from == 1) conn.exec(kDiagnosesSql, "creating the diagnoses table (schema version 2)");
-    else conn.exec(kRunCountersSql, "adding the run counters (schema version 3)");
+    else if (from == 2) conn.exec(kRunCountersSql, "adding the run counters (schema version 3)");
+    else conn.exec(kDiagnosisTracesSql, "adding the diagnosis traces (schema version 4)");
     conn.exec(("UPDATE meta SET value = '" + std::to_string(from + 1) +
                "' WHERE key = 'schema_version'").c_str(),
               "writing meta.schema_version");
@@ -211,6 +231,7 @@ void write_schema(const Connection& conn) {
   conn.exec(kSchemaSql, "creating the schema");
   conn.exec(kDiagnosesSql, "creating the diagnoses table");
   conn.exec(kRunCountersSql, "adding the run counters");
+  conn.exec(kDiagnosisTracesSql, "adding the diagnosis traces");
   conn.exec(("PRAGMA application_id = " + std::to_string(kStoreApplicationId)).c_str(),
             "setting the application_id");
   Statement ins(conn, "INSERT INTO meta (key, value) VALUES (?1, ?2)", "writing meta");

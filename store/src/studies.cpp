@@ -107,10 +107,15 @@ std::optional<StudyRecord> Store::find_resumable(const std::string& name,
       &spec_hash);
 }
 
-std::vector<StudyRecord> Store::list_studies(std::size_t page_size, const std::string& after_id) {
-  Statement st(impl_->conn, select_studies("WHERE id > ?1 ORDER BY id LIMIT ?2").c_str(),
+std::vector<StudyRecord> Store::list_studies(std::size_t page_size, const std::string& after_id,
+                                            const std::string& name_contains) {
+  // instr() on lower() of both: a plain substring test (LIKE would give '%' and '_' a meaning).
+  Statement st(impl_->conn,
+               select_studies("WHERE id > ?1 AND (?3 = '' OR instr(lower(name), lower(?3)) > 0) "
+                              "ORDER BY id LIMIT ?2")
+                   .c_str(),
                "listing studies");
-  st.bind_text(1, after_id).bind_int(2, to_limit(page_size));
+  st.bind_text(1, after_id).bind_int(2, to_limit(page_size)).bind_text(3, name_contains);
   std::vector<StudyRecord> out;
   while (st.step()) out.push_back(read_study(st, path()));
   return out;

@@ -607,6 +607,25 @@ TEST_F(StoreTest, ListStudiesPaginates) {
   EXPECT_EQ(seen, ids);
 }
 
+TEST_F(StoreTest, ListStudiesFiltersByNameCaseInsensitivelyWithoutWildcards) {
+  auto store = Store::open(db_);
+  for (const char* name : {"paper-map", "Load", "MAP_2", "other", "50%"})
+    store.create_study(new_study(name, 1));
+  std::vector<std::string> names;
+  std::string after;
+  for (int page = 0; page < 10; ++page) {
+    const auto rows = store.list_studies(1, after, "map");
+    if (rows.empty()) break;
+    names.push_back(rows[0].name);
+    after = rows[0].id;
+  }
+  std::sort(names.begin(), names.end());  // ids of the same millisecond sort by chance
+  EXPECT_EQ(names, (std::vector<std::string>{"MAP_2", "paper-map"}));
+  EXPECT_EQ(store.list_studies(10, "", "%").size(), 1u);  // the literal '%', not "anything"
+  EXPECT_EQ(store.list_studies(10, "", "_").size(), 1u);
+  EXPECT_EQ(store.list_studies(10, "", "").size(), 5u);
+}
+
 // ---------------------------------------------------------------------------------------------
 // Runs
 // ---------------------------------------------------------------------------------------------

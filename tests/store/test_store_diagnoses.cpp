@@ -143,7 +143,10 @@ TEST_F(StoreDiagnoses, Version2DatabaseGetsRunCountersFilledFromItsRuns) {
     EXPECT_EQ(c.ok, 2);
     EXPECT_EQ(c.failed, 2);
   }
-  EXPECT_EQ(query_text(db, "SELECT value FROM meta WHERE key = 'schema_version'"), "3");
+  // 2 -> 3 -> 4 in one open: version 4 adds the (empty) diagnosis_traces table.
+  EXPECT_EQ(query_text(db, "SELECT value FROM meta WHERE key = 'schema_version'"),
+            std::to_string(kStoreSchemaVersion));
+  EXPECT_EQ(query_text(db, "SELECT count(*) FROM diagnosis_traces"), "0");
   EXPECT_EQ(query_text(db, "SELECT runs_done || '/' || runs_ok || '/' || runs_failed FROM studies"),
             "4/2/2");
   EXPECT_EQ(query_text(db, "SELECT count(*) FROM sqlite_master WHERE type = 'trigger'"), "3");
@@ -216,6 +219,54 @@ TEST_F(StoreDiagnoses, CreateStateFinishAndCancelRules) {
   const auto page2 = store.list_diagnoses(5, page1[0].id);
   ASSERT_EQ(page2.size(), 1u);
   EXPECT_EQ(page2[0].id, b.diagnosis.id);
+}
+
+TEST_F(StoreDiagnoses, TracesAreStoredWithTheOutcomeInOneTransaction) {
+  auto store = Store::open(tmp_ / "t.db");
+  NewDiagnosis nd;
+  nd.name = "traces";
+  nd.request_json = R"({"manifest": {}})";
+  nd.request_hash = param_hash(nd.request_json);
+  const std::string id = store.create_diagnosis(nd).diagnosis.id;
+  DiagnosisTrace a{"va0", {0.0, 0.5, 1.0}, {1.0, -2.5, 3.25}, {1.1, -2.4, 3.0}, {1.0, -2.5, 3.2}};
+  DiagnosisTrace b{"va4", {0.0, 0.5}, {0.1, 0.2}, {0.3, 0.4}, {}};  // no extended model
+  EXPECT_TRUE(store.list_diagnosis_traces(id).empty());
+
+  // Series of different lengths: refused, and nothing changes (not even the state).
+  DiagnosisTrace bad = a;
+  bad.base.pop_back();
+  EXPECT_THROW(store.finish_diagnosis(id, StudyState::kSucceeded, "{}", std::nullopt, {a, bad}),
+               StoreError);
+  EXPECT_EQ(store.get_diagnosis(id)->state, StudyState::kQueued);
+  EXPECT_TRUE(store.list_diagnosis_traces(id).empty());
+
+  ASSERT_TRUE(store.finish_diagnosis(id, StudyState::kSucceeded, R"({"cause": "none"})",
+                                     std::nullopt, {a, b}));
+  const auto list = store.list_diagnosis_traces(id);
+  ASSERT_EQ(list.size(), 2u);
+  EXPECT_EQ(list[0].run_index, 0);
+  EXPECT_EQ(list[0].run, "va0");
+  EXPECT_EQ(list[0].samples, 3);
+  EXPECT_EQ(list[0].t_first, 0.0);
+  EXPECT_EQ(list[0].t_last, 1.0);
+  EXPECT_TRUE(list[0].has_extended);
+  EXPECT_EQ(list[1].run, "va4");
+  EXPECT_FALSE(list[1].has_extended);
+  const auto got = store.get_diagnosis_trace(id, 0);
+  ASSERT_TRUE(got);
+  EXPECT_EQ(got->t, a.t);  // bit for bit
+  EXPECT_EQ(got->measured, a.measured);
+  EXPECT_EQ(got->base, a.base);
+  EXPECT_EQ(got->extended, a.extended);
+  EXPECT_TRUE(store.get_diagnosis_trace(id, 1)->extended.empty());
+  EXPECT_FALSE(store.get_diagnosis_trace(id, 2));
+
+  // A cancelled diagnosis takes no result and no traces.
+  const std::string other = store.create_diagnosis(nd).diagnosis.id;
+  store.set_diagnosis_state(other, StudyState::kCancelled);
+  EXPECT_FALSE(store.finish_diagnosis(other, StudyState::kSucceeded, "{}", std::nullopt, {a}));
+  EXPECT_TRUE(store.list_diagnosis_traces(other).empty());
+  EXPECT_TRUE(store.list_diagnosis_traces("dg-unknown").empty());
 }
 
 }  // namespace

@@ -46,10 +46,11 @@ class StoreError : public std::runtime_error {
 /// PRAGMA application_id of a stickslip database: "SSLP" = 0x53534C50.
 inline constexpr std::int32_t kStoreApplicationId = 0x53534C50;
 /// meta.schema_version written by this build. Version 2 added the diagnoses table, version 3 the
-/// run counters of each study (kept by triggers; v_study_progress reads them). An older database
+/// run counters of each study (kept by triggers; v_study_progress reads them), version 4 the
+/// diagnosis_traces table (a diagnosis' measured, base and extended series). An older database
 /// is migrated step by step on its first read-write open (nothing in it changes but the added
 /// tables, columns, triggers and meta rows), and read as it is by a read-only open.
-inline constexpr int kStoreSchemaVersion = 3;
+inline constexpr int kStoreSchemaVersion = 4;
 
 /// 64-bit FNV-1a of the bytes of canonical_json as 16 lowercase hex digits.
 /// Hand-written on purpose: SQLite has no hash function, and a parameter fingerprint needs no
@@ -112,6 +113,25 @@ struct DiagnosisRecord {
   std::optional<std::string> started_at, finished_at, error;
   std::optional<std::string> result_json;  ///< diagnosis.json (diagnosis::to_json) once succeeded
   std::optional<std::string> idempotency_key;
+};
+
+/// A diagnosis' series of one run at the decimated sample times of the fit (studies::RunSeries):
+/// what `stickslip diagnose` plots in runK.png (schema version 4).
+struct DiagnosisTrace {
+  std::string run;                ///< the run's name in the manifest
+  std::vector<double> t;          ///< [s]
+  std::vector<double> measured;   ///< [N]
+  std::vector<double> base;       ///< the calibrated base model + offset [N]
+  std::vector<double> extended;   ///< the extended model + offset [N]; empty when there is none
+};
+
+/// What Store::list_diagnosis_traces says of one stored trace (without its samples).
+struct DiagnosisTraceInfo {
+  std::int64_t run_index = 0;  ///< position of the run in the manifest, from 0
+  std::string run;
+  std::int64_t samples = 0;
+  double t_first = 0, t_last = 0;  ///< [s]; NaN without samples
+  bool has_extended = false;
 };
 
 struct CreatedDiagnosis {
@@ -206,8 +226,10 @@ class Store {
   CreatedStudy create_study(const NewStudy& new_study);
   std::optional<StudyRecord> get_study(const std::string& id);
   /// Keyset pagination in id order (= creation order for new_study_id() ids): up to page_size
-  /// studies with id > after_id (all ids when after_id is empty).
-  std::vector<StudyRecord> list_studies(std::size_t page_size, const std::string& after_id = "");
+  /// studies with id > after_id (all ids when after_id is empty). With name_contains, only the
+  /// studies whose name contains it (ASCII case-insensitive; the same keyset pages).
+  std::vector<StudyRecord> list_studies(std::size_t page_size, const std::string& after_id = "",
+                                        const std::string& name_contains = "");
   /// Sets state and error (nullopt: NULL). Running sets started_at if unset; a terminal state
   /// (succeeded, failed, cancelled) sets finished_at to now, any other state clears it.
   /// Throws StoreError for an unknown id.
@@ -253,9 +275,18 @@ class Store {
   /// Stores the outcome of a run (state succeeded with result_json, or failed with error) in
   /// one statement, but only while the diagnosis is queued or running: returns false, changing
   /// nothing, when it was cancelled (or finished) meanwhile.
+  /// traces (one per run, in manifest order) are stored in the same transaction as the
+  /// outcome, replacing any stored before; the lengths of a trace's series must agree (extended
+  /// may be empty), else StoreError and nothing changes.
   bool finish_diagnosis(const std::string& id, StudyState state,
                         const std::optional<std::string>& result_json,
-                        const std::optional<std::string>& error = std::nullopt);
+                        const std::optional<std::string>& error = std::nullopt,
+                        const std::vector<DiagnosisTrace>& traces = {});
+  /// The stored traces of a diagnosis, in run order (empty: none stored, or no such diagnosis).
+  std::vector<DiagnosisTraceInfo> list_diagnosis_traces(const std::string& id);
+  /// One run's stored trace; nullopt when it has none.
+  std::optional<DiagnosisTrace> get_diagnosis_trace(const std::string& id,
+                                                    std::int64_t run_index);
 
   struct Impl;
 
