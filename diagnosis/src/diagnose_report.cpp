@@ -83,20 +83,31 @@ std::string shell_word(const std::string& s) {
   return out + "'";
 }
 
+/// The evidence views in the order of evidence.png's panels (1 to 6).
+constexpr std::string_view kEvidenceViews[] = {"velocity",   "stick_time", "position",
+                                               "x_spectrum", "t_spectrum", "stage_levels"};
+
 /// The evidence panel that points at a cause (write_report's evidence.png), 0 when none.
 int evidence_panel(const std::string& cause) {
-  if (cause == "viscous" || cause == "stribeck_shape" || cause == "drive_damping") return 1;
-  if (cause == "dwell_time") return 2;
-  if (cause == "drift") return 3;
-  if (cause == "waviness") return 4;
-  if (cause == "sensor_dynamics") return 5;
-  if (cause == "normal_load_modulation") return 6;
+  const std::string_view view = evidence_view(cause);
+  for (int i = 0; i < 6; ++i)
+    if (kEvidenceViews[i] == view) return i + 1;
   return 0;
 }
 
 }  // namespace
 
 std::string_view diagnosis_schema_text() noexcept { return generated::kDiagnosisSchemaJson; }
+
+std::string_view evidence_view(std::string_view cause) noexcept {
+  if (cause == "viscous" || cause == "stribeck_shape" || cause == "drive_damping") return "velocity";
+  if (cause == "dwell_time") return "stick_time";
+  if (cause == "drift") return "position";
+  if (cause == "waviness") return "x_spectrum";
+  if (cause == "sensor_dynamics") return "t_spectrum";
+  if (cause == "normal_load_modulation") return "stage_levels";
+  return "";
+}
 
 nlohmann::json to_json(const Diagnosis& d) {
   nlohmann::json j;

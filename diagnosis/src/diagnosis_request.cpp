@@ -37,7 +37,7 @@ ParsedDiagnosisRequest parse_diagnosis_request(const json& doc, int threads) {
   if (!out.errors.empty()) return out;
 
   DiagnoseOptions o;
-  o.keep_traces = false;  // the server keeps diagnosis.json only; series are for plots
+  o.keep_traces = false;  // series are for plots: the server's worker turns them on to store them
   o.threads = threads;
   if (const auto it = doc.find("options"); it != doc.end()) {
     const json& j = *it;

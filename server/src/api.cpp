@@ -190,6 +190,14 @@ Api::Api(ApiOptions options, Scheduler* scheduler, DiagnosisScheduler* diagnoses
   router_.add("GET", "/v1/diagnoses/{id}", [this, id_of](const Request& r, const PathParams& p) {
     return get_diagnosis(r, id_of(p));
   });
+  router_.add("GET", "/v1/diagnoses/{id}/traces",
+              [this, id_of](const Request& r, const PathParams& p) {
+                return list_diagnosis_traces(r, id_of(p));
+              });
+  router_.add("GET", "/v1/diagnoses/{id}/traces/{run}",
+              [this, id_of](const Request& r, const PathParams& p) {
+                return get_diagnosis_trace(r, id_of(p), p.at("run"));
+              });
   router_.add("POST", "/v1/diagnoses/{id}:cancel",
               [this, id_of](const Request& r, const PathParams& p) {
                 return cancel_diagnosis(r, id_of(p));
@@ -359,9 +367,18 @@ Response Api::list_studies(const Request& r) const {
   const auto page = detail::id_page_params(r, options_.default_page_size,
                                            options_.max_page_size, &error);
   if (!page) return error;
+  const auto q = r.query();
+  std::string name;
+  if (const auto it = q.find("name"); it != q.end()) {
+    name = it->second;
+    if (name.size() > 200)
+      return problem(400, "invalid-parameter", "Invalid query parameter",
+                     "name must be at most 200 characters, got " + std::to_string(name.size()),
+                     {FieldError::query("name", "at most 200 characters")}, instance);
+  }
   try {
     auto store = pool_.acquire();
-    auto rows = store->list_studies(page->size + 1, page->after);
+    auto rows = store->list_studies(page->size + 1, page->after, name);
     const json next = detail::take_id_page(rows, page->size);
     json out = {{"studies", json::array()}};
     for (const auto& rec : rows)

@@ -1,10 +1,16 @@
 // The diagnosis resources of the API (see api.h): POST /v1/diagnoses with a manifest and the
 // contents of its CSV files (schemas/diagnosis_request.schema.json), GET one or a page of them,
-// and cancel. The diagnosis itself runs in the DiagnosisWorker, never on a handler thread.
+// their stored traces, and cancel. The diagnosis itself runs in the DiagnosisWorker, never on a
+// handler thread.
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+
 #include <nlohmann/json.hpp>
 
 #include "api_util.h"
 #include "stickslip/server/api.h"
+#include "stickslip/diagnosis/diagnose.h"
 #include "stickslip/diagnosis/diagnosis_request.h"
 #include "stickslip/common/json_schema.h"
 #include "stickslip/store/store.h"
@@ -31,7 +37,7 @@ json diagnosis_json(const DiagnosisRecord& rec, bool with_result) {
             {"started_at", opt_text(rec.started_at)},
             {"finished_at", opt_text(rec.finished_at)},
             {"error", opt_text(rec.error)},
-            {"links", {{"self", self}, {"cancel", self + ":cancel"}}}};
+            {"links", {{"self", self}, {"cancel", self + ":cancel"}, {"traces", self + "/traces"}}}};
   if (with_result) {
     json result = nullptr;
     if (rec.result_json) {
@@ -39,6 +45,11 @@ json diagnosis_json(const DiagnosisRecord& rec, bool with_result) {
       result = json::parse(*rec.result_json, nullptr, false);
       if (result.is_discarded()) result = nullptr;
     }
+    // The evidence view of the named cause (diagnosis::evidence_view), for readers that mark it.
+    if (result.is_object() && result.contains("cause") && result["cause"].is_string())
+      j["cause_view"] = std::string(diagnosis::evidence_view(result["cause"].get<std::string>()));
+    else
+      j["cause_view"] = nullptr;
     j["result"] = std::move(result);
   }
   return j;
@@ -175,6 +186,173 @@ Response Api::get_diagnosis(const Request& r, const std::string& id) const {
     const auto rec = store->get_diagnosis(id);
     if (!rec) return unknown_diagnosis(id, r.path());
     return json_response(200, diagnosis_json(*rec, true));
+  } catch (const StoreError& e) {
+    return detail::store_failure(e, r.path());
+  }
+}
+
+namespace {
+
+constexpr std::size_t kDefaultTracePoints = 2000;
+constexpr std::size_t kMaxTracePoints = 200000;
+
+/// A finite number from a query parameter, or the 400 problem in *error.
+std::optional<double> number_param(const Request& r, const std::string& name, Response* error) {
+  const auto q = r.query();
+  const auto it = q.find(name);
+  if (it == q.end()) return std::nullopt;
+  double v = 0;
+  const auto& s = it->second;
+  const auto [end, ec] = std::from_chars(s.data(), s.data() + s.size(), v);
+  if (ec != std::errc{} || end != s.data() + s.size() || !std::isfinite(v)) {
+    *error = problem(400, "invalid-parameter", "Invalid query parameter",
+                     name + " must be a finite number [s], got \"" + s + "\"",
+                     {FieldError::query(name, "not a finite number: \"" + s + "\"")}, r.path());
+  }
+  return v;
+}
+
+/// Indices of [begin, end) to show at most max_points samples: all of them when they fit, else
+/// per bucket of equal sample count the samples of the measured force's minimum and maximum,
+/// in time order (the sticks and slips stay visible, which a fixed stride can skip).
+std::vector<std::size_t> decimate(const std::vector<double>& measured, std::size_t begin,
+                                  std::size_t end, std::size_t max_points) {
+  std::vector<std::size_t> out;
+  const std::size_t n = end - begin;
+  if (n <= max_points) {
+    for (std::size_t i = begin; i < end; ++i) out.push_back(i);
+    return out;
+  }
+  const std::size_t buckets = std::max<std::size_t>(1, max_points / 2);
+  for (std::size_t b = 0; b < buckets; ++b) {
+    const std::size_t lo = begin + b * n / buckets, hi = begin + (b + 1) * n / buckets;
+    if (lo >= hi) continue;
+    std::size_t imin = lo, imax = lo;
+    for (std::size_t i = lo; i < hi; ++i) {
+      if (measured[i] < measured[imin]) imin = i;
+      if (measured[i] > measured[imax]) imax = i;
+    }
+    out.push_back(std::min(imin, imax));
+    if (imin != imax) out.push_back(std::max(imin, imax));
+  }
+  return out;
+}
+
+}  // namespace
+
+Response Api::list_diagnosis_traces(const Request& r, const std::string& id) const {
+  if (!detail::is_valid_id(id)) return unknown_diagnosis(id, r.path());
+  try {
+    auto store = pool_.acquire();
+    const auto rec = store->get_diagnosis(id);
+    if (!rec) return unknown_diagnosis(id, r.path());
+    json runs = json::array();
+    for (const auto& info : store->list_diagnosis_traces(id)) {
+      const std::string self =
+          kCollection + "/" + id + "/traces/" + std::to_string(info.run_index);
+      runs.push_back({{"index", info.run_index},
+                      {"run", info.run},
+                      {"samples", info.samples},
+                      {"t_first", detail::number_or_null(info.t_first)},
+                      {"t_last", detail::number_or_null(info.t_last)},
+                      {"extended", info.has_extended},
+                      {"links", {{"self", self}, {"csv", self + "?format=csv"}}}});
+    }
+    return json_response(200, {{"diagnosis_id", id},
+                               {"state", store::to_string(rec->state)},
+                               {"runs", std::move(runs)}});
+  } catch (const StoreError& e) {
+    return detail::store_failure(e, r.path());
+  }
+}
+
+Response Api::get_diagnosis_trace(const Request& r, const std::string& id,
+                                  const std::string& run) const {
+  const auto format = detail::negotiate(r, true);
+  if (!format) return detail::not_acceptable(r, true);
+  if (!detail::is_valid_id(id)) return unknown_diagnosis(id, r.path());
+  std::int64_t index = -1;
+  {
+    const auto [end, ec] = std::from_chars(run.data(), run.data() + run.size(), index);
+    if (ec != std::errc{} || end != run.data() + run.size() || index < 0)
+      return problem(404, "trace-not-found", "Trace not found",
+                     "traces are numbered from 0 in manifest order (GET " + kCollection + "/" + id +
+                         "/traces lists them), got \"" + run + "\"",
+                     {}, r.path());
+  }
+  Response error;
+  const auto max_points = detail::page_size_param_named(r, "max_points", kDefaultTracePoints,
+                                                        kMaxTracePoints, &error);
+  if (!max_points) return error;
+  if (*max_points < 2)
+    return problem(400, "invalid-parameter", "Invalid query parameter",
+                   "max_points must be at least 2, got " + std::to_string(*max_points),
+                   {FieldError::query("max_points", "must be an integer from 2 to " +
+                                                        std::to_string(kMaxTracePoints))},
+                   r.path());
+  error.status = 0;
+  const auto t_min = number_param(r, "t_min", &error);
+  if (error.status != 0) return error;
+  const auto t_max = number_param(r, "t_max", &error);
+  if (error.status != 0) return error;
+  if (t_min && t_max && *t_min > *t_max)
+    return problem(400, "invalid-parameter", "Invalid query parameter",
+                   "t_min must not exceed t_max",
+                   {FieldError::query("t_min", "greater than t_max")}, r.path());
+  try {
+    auto store = pool_.acquire();
+    if (!store->get_diagnosis(id)) return unknown_diagnosis(id, r.path());
+    const auto tr = store->get_diagnosis_trace(id, index);
+    if (!tr)
+      return problem(404, "trace-not-found", "Trace not found",
+                     "diagnosis " + id + " has no stored trace " + run +
+                         " (traces are stored when a diagnosis succeeds; GET " + kCollection +
+                         "/" + id + "/traces lists them)",
+                     {}, r.path());
+    // The window [t_min, t_max] (inclusive) as a range of sample indices; t is increasing.
+    const std::size_t begin =
+        t_min ? static_cast<std::size_t>(std::lower_bound(tr->t.begin(), tr->t.end(), *t_min) -
+                                         tr->t.begin())
+              : 0;
+    const std::size_t end =
+        t_max ? static_cast<std::size_t>(std::upper_bound(tr->t.begin(), tr->t.end(), *t_max) -
+                                         tr->t.begin())
+              : tr->t.size();
+    const std::size_t stop = std::max(begin, end);
+    const bool has_ext = !tr->extended.empty();
+    if (*format == detail::Format::kCsv) {
+      // Every sample of the window (no decimation), with both residuals, as the .dat files of
+      // `stickslip diagnose --out`.
+      std::string csv = "t,measured,base,extended,residual_base,residual_extended\n";
+      for (std::size_t i = begin; i < stop; ++i) {
+        const double ext = has_ext ? tr->extended[i] : std::nan("");
+        csv += detail::csv_number(tr->t[i]) + "," + detail::csv_number(tr->measured[i]) + "," +
+               detail::csv_number(tr->base[i]) + "," + detail::csv_number(ext) + "," +
+               detail::csv_number(tr->measured[i] - tr->base[i]) + "," +
+               detail::csv_number(tr->measured[i] - ext) + "\n";
+      }
+      return text_response(200, "text/csv; charset=utf-8", std::move(csv));
+    }
+    const auto keep = decimate(tr->measured, begin, stop, *max_points);
+    json t = json::array(), measured = json::array(), base = json::array();
+    json extended = has_ext ? json::array() : json(nullptr);
+    for (const std::size_t i : keep) {
+      t.push_back(detail::number_or_null(tr->t[i]));
+      measured.push_back(detail::number_or_null(tr->measured[i]));
+      base.push_back(detail::number_or_null(tr->base[i]));
+      if (has_ext) extended.push_back(detail::number_or_null(tr->extended[i]));
+    }
+    return json_response(200, {{"diagnosis_id", id},
+                               {"index", index},
+                               {"run", tr->run},
+                               {"samples", stop - begin},
+                               {"total_samples", tr->t.size()},
+                               {"returned", keep.size()},
+                               {"decimated", keep.size() < stop - begin},
+                               {"t", std::move(t)},
+                               {"measured", std::move(measured)},
+                               {"base", std::move(base)},
+                               {"extended", std::move(extended)}});
   } catch (const StoreError& e) {
     return detail::store_failure(e, r.path());
   }

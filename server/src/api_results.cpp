@@ -113,6 +113,14 @@ Response Api::get_runs(const Request& r, const std::string& id) const {
 Response Api::get_map(const Request& r, const std::string& id) const {
   const auto format = detail::negotiate(r, true);
   if (!format) return detail::not_acceptable(r, true);
+  // layout=columns: the same map by columns (studies::map_to_columns_json), for large maps.
+  const auto q = r.query();
+  const auto layout = q.find("layout");
+  const bool columns = layout != q.end() && layout->second == "columns";
+  if (layout != q.end() && !columns && layout->second != "rows")
+    return problem(400, "invalid-parameter", "Invalid query parameter",
+                   "layout must be rows or columns, got \"" + layout->second + "\"",
+                   {FieldError::query("layout", "expected rows or columns")}, r.path());
   try {
     auto store = pool_.acquire();
     if (!store->get_study(id)) return unknown_study(id, r.path());
@@ -124,7 +132,7 @@ Response Api::get_map(const Request& r, const std::string& id) const {
     }
     if (*format == Format::kCsv)
       return text_response(200, "text/csv; charset=utf-8", studies::map_to_csv(map));
-    return json_response(200, studies::map_to_json(map));
+    return json_response(200, columns ? studies::map_to_columns_json(map) : studies::map_to_json(map));
   } catch (const StoreError& e) {
     return store_failure(e, r.path());
   }

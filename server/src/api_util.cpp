@@ -75,19 +75,24 @@ std::optional<IdPage> id_page_params(const Request& r, std::size_t fallback_size
 
 std::optional<std::size_t> page_size_param(const Request& r, std::size_t fallback,
                                            std::size_t max, Response* error) {
+  return page_size_param_named(r, "page_size", fallback, max, error);
+}
+
+std::optional<std::size_t> page_size_param_named(const Request& r, const std::string& name,
+                                                 std::size_t fallback, std::size_t max,
+                                                 Response* error) {
   const auto q = r.query();
-  const auto it = q.find("page_size");
+  const auto it = q.find(name);
   if (it == q.end()) return fallback;
   std::size_t value = 0;
   const auto& s = it->second;
   const auto [end, ec] = std::from_chars(s.data(), s.data() + s.size(), value);
   if (ec != std::errc{} || end != s.data() + s.size() || value < 1 || value > max) {
     *error = problem(400, "invalid-parameter", "Invalid query parameter",
-                     "page_size must be an integer from 1 to " + std::to_string(max) + ", got \"" +
+                     name + " must be an integer from 1 to " + std::to_string(max) + ", got \"" +
                          s + "\"",
-                     {FieldError::query("page_size", "must be an integer from 1 to " +
-                                                         std::to_string(max) + ", got \"" + s +
-                                                         "\"")},
+                     {FieldError::query(name, "must be an integer from 1 to " +
+                                                  std::to_string(max) + ", got \"" + s + "\"")},
                      r.path());
     return std::nullopt;
   }

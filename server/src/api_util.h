@@ -25,6 +25,10 @@ Response not_acceptable(const Request& r, bool csv_allowed);
 /// problem in *error.
 std::optional<std::size_t> page_size_param(const Request& r, std::size_t fallback,
                                            std::size_t max, Response* error);
+/// The same for any integer parameter named name (e.g. max_points).
+std::optional<std::size_t> page_size_param_named(const Request& r, const std::string& name,
+                                                 std::size_t fallback, std::size_t max,
+                                                 Response* error);
 
 /// Page of a list keyed by id (studies, diagnoses): page_size (page_size_param) and the optional
 /// page_token, the id to list after ("" when absent).

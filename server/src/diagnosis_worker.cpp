@@ -14,9 +14,17 @@ namespace stickslip::server {
 
 using store::StudyState;
 
-nlohmann::json run_diagnosis(const measured::MeasuredDataset& data,
-                             const diagnosis::DiagnoseOptions& options) {
-  return diagnosis::to_json(diagnosis::diagnose(data, options));
+std::vector<store::DiagnosisTrace> diagnosis_traces(const diagnosis::Diagnosis& d) {
+  std::vector<store::DiagnosisTrace> out;
+  out.reserve(d.series.size());
+  for (const auto& s : d.series) out.push_back({s.name, s.t, s.measured, s.base, s.extended});
+  return out;
+}
+
+DiagnosisOutput run_diagnosis(const measured::MeasuredDataset& data,
+                              const diagnosis::DiagnoseOptions& options) {
+  const diagnosis::Diagnosis d = diagnosis::diagnose(data, options);
+  return {diagnosis::to_json(d), diagnosis_traces(d)};
 }
 
 CancelOutcome cancel_diagnosis_unclaimed(store::Store& store, const std::string& id) {
@@ -96,10 +104,14 @@ struct DiagnosisWorker::Shared {
                    request->data.runs.size());
       const auto t0 = std::chrono::steady_clock::now();
       std::optional<std::string> result, error;
+      std::vector<store::DiagnosisTrace> traces;
       diagnosis::DiagnoseOptions diag_options = request->options;
       diag_options.stop_requested = [this] { return stop_running.load(); };
+      diag_options.keep_traces = true;  // stored beside the result (GET .../traces)
       try {
-        result = fn(request->data, diag_options).dump();
+        DiagnosisOutput out = fn(request->data, diag_options);
+        result = out.result.dump();
+        traces = std::move(out.traces);
       } catch (const std::exception& e) {
         if (stop_running) {
           // Told to stop (studies::DiagnosisCancelled, or whatever failed under the stop): it
@@ -116,7 +128,7 @@ struct DiagnosisWorker::Shared {
       const double secs =
           std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       const bool stored = store.finish_diagnosis(
-          id, result ? StudyState::kSucceeded : StudyState::kFailed, result, error);
+          id, result ? StudyState::kSucceeded : StudyState::kFailed, result, error, traces);
       spdlog::info("diagnosis {}: {} in {:.1f} s{}{}", id,
                    !stored ? "cancelled (or finished elsewhere) meanwhile, result discarded"
                            : (result ? "succeeded" : "failed"),

