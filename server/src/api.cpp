@@ -7,6 +7,7 @@
 
 #include "api_util.h"
 #include "stickslip/diagnosis/diagnosis_request.h"
+#include "stickslip/server/dashboard.h"
 #include "stickslip/studies/export.h"
 #include "stickslip/common/json_schema.h"
 #include "stickslip/store/store.h"
@@ -202,6 +203,19 @@ Api::Api(ApiOptions options, Scheduler* scheduler, DiagnosisScheduler* diagnoses
               [this, id_of](const Request& r, const PathParams& p) {
                 return cancel_diagnosis(r, id_of(p));
               });
+  // The dashboard: index.html at / and its files at /ui/<path> (up to three segments deep).
+  router_.add("GET", "/", [this](const Request& r, const PathParams&) {
+    return dashboard_file(r, "index.html");
+  });
+  router_.add("GET", "/ui/{file}", [this](const Request& r, const PathParams& p) {
+    return dashboard_file(r, p.at("file"));
+  });
+  router_.add("GET", "/ui/{dir}/{file}", [this](const Request& r, const PathParams& p) {
+    return dashboard_file(r, p.at("dir") + "/" + p.at("file"));
+  });
+  router_.add("GET", "/ui/{dir}/{sub}/{file}", [this](const Request& r, const PathParams& p) {
+    return dashboard_file(r, p.at("dir") + "/" + p.at("sub") + "/" + p.at("file"));
+  });
   router_.add("GET", "/healthz", [this](const Request& r, const PathParams&) { return healthz(r); });
   router_.add("GET", "/metrics", [this](const Request& r, const PathParams&) { return metrics(r); });
   router_.add("GET", "/v1/openapi.json",
@@ -228,9 +242,22 @@ Api::Api(ApiOptions options, Scheduler* scheduler, DiagnosisScheduler* diagnoses
   });
 }
 
+namespace {
+
+/// The headers every response carries unless its handler set its own (dashboard.h).
+void add_security_headers(Response& r) {
+  if (!r.header("Content-Security-Policy"))
+    r.set_header("Content-Security-Policy", std::string(kContentSecurityPolicy));
+  r.set_header("X-Content-Type-Options", "nosniff");
+  r.set_header("Referrer-Policy", "no-referrer");
+}
+
+}  // namespace
+
 Response Api::handle(const Request& request) const {
   Response r = router_.route(request);
   if (!r.header("Cache-Control")) r.set_header("Cache-Control", "no-store");
+  add_security_headers(r);
   const int cls = r.status / 100;
   if (cls >= 1 && cls <= 5) responses_[static_cast<std::size_t>(cls)].fetch_add(1);
   return r;
@@ -409,7 +436,10 @@ std::optional<Response> Api::handle_cached(const Request& request) const {
   const std::string id = path.substr(kPrefix.size());
   if (!is_valid_id(id)) return std::nullopt;  // ids have no '/' or ':'; the router answers
   auto resp = cached_study(request, id);
-  if (resp) responses_[static_cast<std::size_t>(resp->status / 100)].fetch_add(1);
+  if (resp) {
+    add_security_headers(*resp);
+    responses_[static_cast<std::size_t>(resp->status / 100)].fetch_add(1);
+  }
   return resp;
 }
 
@@ -475,6 +505,20 @@ Response Api::healthz(const Request& r) const {
   } catch (const StoreError& e) {
     return problem(503, "unhealthy", "Unhealthy", std::string("store: ") + e.what(), {}, r.path());
   }
+}
+
+Response Api::dashboard_file(const Request& r, const std::string& path) const {
+  const auto asset = find_web_asset(path);
+  if (!asset)
+    return problem(404, "not-found", "Not found", "the dashboard has no file \"" + path + "\"", {},
+                   r.path());
+  Response resp = text_response(200, std::string(asset->content_type), std::string(asset->body));
+  resp.set_header("ETag", std::string(asset->etag));
+  // Vendored files have their version in their path; the dashboard's own are revalidated (a
+  // 304 without a body) on every load, so a new server's pages are used at once.
+  resp.set_header("Cache-Control", asset->immutable ? "public, max-age=31536000, immutable"
+                                                    : "no-cache");
+  return conditional_response(r, resp);
 }
 
 Response Api::openapi(const Request&) const {

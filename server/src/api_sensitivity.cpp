@@ -4,6 +4,7 @@
 #include <sstream>
 
 #include "api_util.h"
+#include "stickslip/server/dashboard.h"
 #include "stickslip/server/api.h"
 #include "stickslip/studies/indices.h"
 #include "stickslip/reports/report.h"
@@ -126,6 +127,9 @@ Response Api::get_report_file(const Request& r, const std::string& date, const s
   body << in.rdbuf();
   Response resp = text_response(200, content_type_of(name), body.str());
   resp.set_header("Cache-Control", "public, max-age=300");
+  // A report's page has an inline <style> and data: images, and no script: its own policy
+  // (dashboard.h), which lets the dashboard embed it in a frame.
+  resp.set_header("Content-Security-Policy", std::string(kReportContentSecurityPolicy));
   return resp;
 }
 

@@ -16,6 +16,10 @@
 //   GET  /v1/diagnoses/{id}/traces/{k} run k's series: JSON (max_points, t_min, t_max) or CSV
 //   POST /v1/diagnoses/{id}:cancel
 //   GET  /healthz, GET /metrics (Prometheus text), GET /v1/openapi.json
+//   GET  /, GET /ui/...                the web dashboard (dashboard.h): static files that call /v1
+//
+// Every response carries the Content-Security-Policy of dashboard.h (no inline script, nothing
+// from another origin), X-Content-Type-Options: nosniff and Referrer-Policy: no-referrer.
 //
 // Every handler leases its own Store connection from the pool, so handlers may run on any number
 // of threads at once. Bad requests are 4xx application/problem+json naming the offending field;
@@ -105,6 +109,8 @@ class Api {
   Response healthz(const Request& r) const;
   Response metrics(const Request& r) const;
   Response openapi(const Request& r) const;
+  /// A file of the dashboard (dashboard.h), "" = index.html.
+  Response dashboard_file(const Request& r, const std::string& path) const;
   /// nullopt when the request may change state; else the 401/403 problem.
   std::optional<Response> check_token(const Request& r) const;
 
