@@ -20,6 +20,9 @@ PACKAGES=(
   curl                     # end-to-end tests drive the server with curl
   jq                       # the curl examples of POST /v1/diagnoses (docs/server.md, README)
   wrk                      # HTTP load benchmark
+  chromium chromium-driver # the dashboard's browser tests (tests/browser): headless Chromium
+  python3-selenium         # ... driven through chromium-driver; run with /usr/bin/python3
+  fonts-dejavu-core        # ... so the pages render with real glyphs in the screenshots
 )
 
 missing=()
