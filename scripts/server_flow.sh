@@ -29,6 +29,7 @@ trap stop_daemon EXIT
 for _ in $(seq 200); do [ -s "$PORT_FILE" ] && break; sleep 0.05; done
 [ -s "$PORT_FILE" ] || { echo "server_flow: stickslipd did not start" >&2; exit 1; }
 URL="http://127.0.0.1:$(cat "$PORT_FILE")"
+echo "server_flow: stickslipd at $URL (open $URL/ in a browser for the dashboard while it runs)" >&2
 
 set +e
 OUT=$("$BIN/client/stickslip" submit "$SPEC" --wait --server "$URL")  # progress on stderr
