@@ -441,6 +441,32 @@ class Dashboard(unittest.TestCase):
         self.shot("server")
         self.assert_clean_console()
 
+    def test_8_sobol_indices_are_bars_with_their_intervals(self):
+        # The analytic Ishigami function: no simulation, 5 x 256 runs in a moment.
+        sid = self.submit_and_wait({"name": "ishigami-sobol", "base": {"model": "ishigami"},
+                                    "design": {"type": "sobol", "n": 256, "seed": 3}})["id"]
+        self.go("/studies/" + sid)
+        self.wait(lambda: self.js("return document.body.dataset.ready") == "study", what="sobol study page")
+        self.wait(lambda: self.js("return !!window.stickslip.charts['indices']"), what="indices chart")
+        chart = self.js("""const u = window.stickslip.charts['indices'];
+            return {labels: u.series.slice(1).map(s => s.label), x: Array.from(u.data[0]),
+                    s1: Array.from(u.data[1]), st: Array.from(u.data[2])};""")
+        self.assertEqual(chart["labels"], ["S1 (first order)", "ST (total)"])
+        self.assertEqual(chart["x"], [0, 1, 2])
+        _, _, body = http("GET", self.url + "/v1/studies/%s/indices" % sid)
+        ind = json.loads(body)["outputs"][0]
+        self.assertTrue(ind["valid"], ind)
+        self.assertEqual(chart["s1"], [r["S1"] for r in ind["indices"]])
+        self.assertEqual(chart["st"], [r["ST"] for r in ind["indices"]])
+        # Each bar's interval is in the legend at the cursor: "value [lo, hi]".
+        over = self.driver.find_element(By.CSS_SELECTOR, "#indices-chart .u-over")
+        ActionChains(self.driver).move_to_element(over).perform()
+        legend = self.js("return Array.from(document.querySelectorAll('#indices-chart .u-legend .u-value')).map(e => e.textContent)")
+        self.assertRegex(legend[1], r"^\S+ \[\S+, \S+\]$")
+        self.assertFalse(self.js("return !!window.stickslip.charts['map-amplitude']"))  # no map of a sampled design
+        self.full_shot("indices")
+        self.assert_clean_console()
+
     def test_7_every_response_carries_the_policy(self):
         status, headers, _ = http("GET", self.url + "/")
         self.assertEqual(status, 200)

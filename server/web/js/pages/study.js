@@ -121,7 +121,14 @@ export async function render(main, [id], query, alive) {
   // --- map, heat map, indices ---------------------------------------------------------------
   const view = { stage: null, metric: "amplitude", group: 0, model: null, output: null };
   let map = null;
+  // A sampled design (random, LHS, Sobol, Morris) has no grid to draw a map on: every point is
+  // its own; its views are the indices and the runs table.
+  const sampled = ["random", "lhs", "sobol", "morris"].includes((spec.design || {}).type);
   async function loadMap() {
+    if (sampled) {
+      replace(mapCard, h("h2", null, "Stick-slip map"), h("p", { class: "notice", id: "no-map" }, "A sampled (" + spec.design.type + ") design has no grid to map: see the indices and the runs table."));
+      return;
+    }
     try {
       const columns = await api.get(base + "/map?layout=columns");
       performance.mark("map-fetched");
