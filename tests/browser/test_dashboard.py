@@ -13,6 +13,9 @@ Run by CTest (tests/CMakeLists.txt). Every page's screenshot goes to DIR. What i
     valid one, submitted with a double click, makes one study, which appears in the list;
   * a diagnosis page shows the measured / base / extended traces and the named cause;
   * a study named <script>alert(1)</script> renders as text, and no alert fires;
+  * a Sobol study's indices are bars (S1, ST) with their intervals, equal to the API's;
+  * with a server that has a token, a submit is refused until the token is given in the dialog,
+    and the token appears nowhere in the page;
   * a nightly report is embedded; the server page shows health and the metrics;
   * the page never logs an error (a Content-Security-Policy violation would be one).
 Uses only the standard library besides selenium (run it with /usr/bin/python3: a python3 on PATH
@@ -466,6 +469,49 @@ class Dashboard(unittest.TestCase):
         self.assertFalse(self.js("return !!window.stickslip.charts['map-amplitude']"))  # no map of a sampled design
         self.full_shot("indices")
         self.assert_clean_console()
+
+    def test_9_writes_need_the_token_and_the_page_never_shows_it(self):
+        secret = "s3cret-Token-%d" % os.getpid()
+        port_file = os.path.join(self.work, "port-token")
+        log = open(os.path.join(self.out, "stickslipd-token.log"), "w")
+        daemon = subprocess.Popen(
+            [os.path.join(ARGS.build, "server", "stickslipd"), "--db", os.path.join(self.work, "token.db"), "--port", "0",
+             "--port-file", port_file, "--threads", "1", "--token", secret, "--log-level", "warn"],
+            stdout=log, stderr=subprocess.STDOUT)
+        try:
+            for _ in range(400):
+                if os.path.exists(port_file) and os.path.getsize(port_file) > 0:
+                    break
+                time.sleep(0.025)
+            with open(port_file) as f:
+                url = "http://127.0.0.1:" + f.read().strip()
+            self.driver.get(url + "/#/submit")
+            self.wait(lambda: self.js("return document.body.dataset.page") == "submit", what="submit page (token server)")
+            self.js("const t = document.getElementById('spec-text'); t.value = arguments[0];"
+                    "t.dispatchEvent(new Event('input'));", json.dumps(map_spec("with-token", 0.2)))
+            self.driver.find_element(By.ID, "submit-study").click()
+            # Refused without the token; the page asks for it.
+            self.wait(lambda: "401" in self.driver.find_element(By.ID, "server-problem").text, what="401")
+            self.wait(lambda: self.js("return document.getElementById('token-dialog').open"), what="token dialog")
+            self.driver.find_element(By.ID, "token-input").send_keys(secret)
+            self.driver.find_element(By.ID, "token-save").click()
+            self.assertEqual(self.driver.find_element(By.ID, "token-state").text, "token set")
+            self.driver.find_element(By.ID, "submit-study").click()
+            self.wait(lambda: self.js("return !!document.getElementById('submitted')"), what="submitted with the token")
+            _, _, body = http("GET", url + "/v1/studies?name=with-token")
+            self.assertEqual(len(json.loads(body)["studies"]), 1)
+            # Nowhere in the page: not in the DOM, not in a field's value.
+            self.assertNotIn(secret, self.js("return document.documentElement.outerHTML"))
+            self.assertNotIn(secret, self.js("return Array.from(document.querySelectorAll('input, textarea')).map(e => e.value).join(' ')"))
+            self.assert_clean_console(allow=["/v1/studies - Failed to load resource: the server responded with a status of 401"])
+        finally:
+            daemon.send_signal(signal.SIGTERM)
+            try:
+                daemon.wait(timeout=30)
+            except subprocess.TimeoutExpired:
+                daemon.kill()
+            log.close()
+            self.driver.get(self.url + "/")
 
     def test_7_every_response_carries_the_policy(self):
         status, headers, _ = http("GET", self.url + "/")
