@@ -1,9 +1,12 @@
 // Internal helpers of the sensitivity estimators (see sa_bootstrap.h).
 #include "sa_bootstrap.h"
 
+#include <omp.h>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <exception>
 #include <limits>
 #include <stdexcept>
 
@@ -88,17 +91,44 @@ std::vector<std::size_t> identity_rows(std::size_t n) {
 }
 
 std::vector<std::vector<double>> bootstrap(std::size_t units, std::size_t values,
-                                           const BootstrapOptions& opt, const Statistic& stat) {
+                                           const BootstrapOptions& opt,
+                                           const StatisticFactory& make) {
   Rng rng(opt.seed);
   std::vector<std::vector<double>> reps(values, std::vector<double>(opt.resamples));
-  std::vector<std::size_t> rows(units);
-  std::vector<double> out(values);
-  for (std::size_t b = 0; b < opt.resamples; ++b) {
-    for (auto& j : rows) j = uniform_index(rng, 0, units - 1);
-    stat(rows, out);
-    for (std::size_t v = 0; v < values; ++v) reps[v][b] = out[v];
+  // Resamples drawn ahead per chunk: at most ~2^20 row indices (8 MB) at a time.
+  const std::size_t chunk = std::clamp<std::size_t>((std::size_t{1} << 20) / units, 1, 64);
+  std::vector<std::vector<std::size_t>> rows(chunk, std::vector<std::size_t>(units));
+  std::exception_ptr failure;
+  for (std::size_t b0 = 0; b0 < opt.resamples && !failure; b0 += chunk) {
+    const std::size_t m = std::min(chunk, opt.resamples - b0);
+    for (std::size_t k = 0; k < m; ++k)
+      for (auto& j : rows[k]) j = uniform_index(rng, 0, units - 1);
+#pragma omp parallel if (m * units * values >= 200000)
+    {
+      // No exception may leave the region: the first one is kept and rethrown below.
+      // Resamples are dealt out by thread number (no worksharing construct, so a thread that
+      // fails cannot leave the others waiting at a barrier).
+      try {
+        const Statistic stat = make();
+        std::vector<double> out(values);
+        const auto threads = static_cast<std::size_t>(omp_get_num_threads());
+        for (auto k = static_cast<std::size_t>(omp_get_thread_num()); k < m; k += threads) {
+          stat(rows[k], out);
+          for (std::size_t v = 0; v < values; ++v) reps[v][b0 + k] = out[v];
+        }
+      } catch (...) {
+#pragma omp critical(sa_bootstrap_failure)
+        if (!failure) failure = std::current_exception();
+      }
+    }
   }
+  if (failure) std::rethrow_exception(failure);
   return reps;
+}
+
+std::vector<std::vector<double>> bootstrap(std::size_t units, std::size_t values,
+                                           const BootstrapOptions& opt, const Statistic& stat) {
+  return bootstrap(units, values, opt, StatisticFactory([&stat] { return stat; }));
 }
 
 namespace {

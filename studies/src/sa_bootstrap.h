@@ -32,13 +32,21 @@ bool constant_output(const std::vector<double>& y, const std::string& method, st
 
 /// Writes the statistics of the units listed in `rows` (with repetitions) to `out`.
 using Statistic = std::function<void(const std::vector<std::size_t>& rows, std::vector<double>& out)>;
+/// Makes a Statistic with its own scratch buffers: one is made per thread.
+using StatisticFactory = std::function<Statistic()>;
 
 /// 0, 1, ..., n - 1.
 std::vector<std::size_t> identity_rows(std::size_t n);
 
 /// Replicates [value][b] of `values` statistics over opt.resamples resamples of `units` units
 /// drawn with replacement, in sequence from Rng(opt.seed): resample b draws its units one after
-/// another with uniform_index(rng, 0, units - 1).
+/// another with uniform_index(rng, 0, units - 1). The draws are sequential and the statistics of
+/// a chunk of resamples are computed in parallel (OpenMP, one Statistic per thread), so the
+/// replicates do not depend on the thread count.
+std::vector<std::vector<double>> bootstrap(std::size_t units, std::size_t values,
+                                           const BootstrapOptions& opt,
+                                           const StatisticFactory& make);
+/// The same for a Statistic without scratch state (safe to call from several threads).
 std::vector<std::vector<double>> bootstrap(std::size_t units, std::size_t values,
                                            const BootstrapOptions& opt, const Statistic& stat);
 

@@ -86,24 +86,26 @@ double median_of(std::vector<double> v) {
 
 // --------------------------------------------------------------------------------- RBD-FAST
 
-MethodIndices rbd_fast_analysis(const Matrix& x, const std::vector<double>& y,
-                                const BootstrapOptions& opt, std::size_t harmonics) {
-  detail::require_positive("harmonics", harmonics, "rbd_fast_analysis");
-  const std::size_t d = check_given(x, y, 2 * harmonics + 1, opt, "rbd_fast_analysis");
-  MethodIndices out;
-  if (detail::constant_output(y, "rbd_fast", y.size(), &out)) return out;
-  const std::size_t n = y.size();
-  const Ranks ranks = make_ranks(x, y);
-  const detail::Roots roots(n);
-  const double lambda = 2.0 * static_cast<double>(harmonics) / static_cast<double>(n);
-  std::vector<std::size_t> start, ord;
-  std::vector<double> z(n);
-  const detail::Statistic stat = [&](const std::vector<std::size_t>& rows, std::vector<double>& o) {
+namespace {
+
+/// S1 of every input for one resample: EASI ordering, M harmonics, Tissot-Prieur correction.
+struct RbdFastStatistic {
+  const std::vector<double>& y;
+  const Ranks& ranks;
+  const detail::Roots& roots;
+  std::size_t harmonics;
+  std::vector<std::size_t> start = {}, ord = {};
+  std::vector<double> z = {};
+
+  void operator()(const std::vector<std::size_t>& rows, std::vector<double>& o) {
+    const std::size_t n = rows.size(), d = ranks.x.size();
+    const double lambda = 2.0 * static_cast<double>(harmonics) / static_cast<double>(n);
     double mean = 0.0, v = 0.0;
     for (const std::size_t r : rows) mean += y[r];
     mean /= static_cast<double>(n);
     for (const std::size_t r : rows) v += (y[r] - mean) * (y[r] - mean);
     v /= static_cast<double>(n);
+    z.resize(n);
     for (std::size_t i = 0; i < d; ++i) {
       if (!(v > 0.0)) {
         o[i] = kNaN;
@@ -119,10 +121,26 @@ MethodIndices rbd_fast_analysis(const Matrix& x, const std::vector<double>& y,
       const double s1 = d1 / v;
       o[i] = s1 - lambda / (1.0 - lambda) * (1.0 - s1);
     }
+  }
+};
+
+}  // namespace
+
+MethodIndices rbd_fast_analysis(const Matrix& x, const std::vector<double>& y,
+                                const BootstrapOptions& opt, std::size_t harmonics) {
+  detail::require_positive("harmonics", harmonics, "rbd_fast_analysis");
+  const std::size_t d = check_given(x, y, 2 * harmonics + 1, opt, "rbd_fast_analysis");
+  MethodIndices out;
+  if (detail::constant_output(y, "rbd_fast", y.size(), &out)) return out;
+  const std::size_t n = y.size();
+  const Ranks ranks = make_ranks(x, y);
+  const detail::Roots roots(n);
+  const detail::StatisticFactory make = [&] {
+    return detail::Statistic(RbdFastStatistic{y, ranks, roots, harmonics});
   };
   std::vector<double> point(d);
-  stat(detail::identity_rows(n), point);
-  auto reps = detail::bootstrap(n, d, opt, stat);
+  make()(detail::identity_rows(n), point);
+  auto reps = detail::bootstrap(n, d, opt, make);
   out.method = "rbd_fast";
   out.units = n;
   out.variance = detail::population_variance(y);
@@ -227,20 +245,22 @@ double l1_distance(const std::vector<double>& a, const std::vector<double>& b, d
 
 }  // namespace
 
-MethodIndices delta_analysis(const Matrix& x, const std::vector<double>& y,
-                             const BootstrapOptions& opt) {
-  const std::size_t d = check_given(x, y, 20, opt, "delta_analysis");
-  MethodIndices out;
-  if (detail::constant_output(y, "delta", y.size(), &out)) return out;
-  const std::size_t n = y.size(), classes = delta_classes(n);
-  const Ranks ranks = make_ranks(x, y);
-  const DensityGrid grid = make_grid(y, classes);
-  BinnedKde kde(grid);
-  std::vector<double> fy(kGrid), fc(kGrid);
-  std::vector<std::size_t> start, ord, members;
-  const detail::Statistic stat = [&](const std::vector<std::size_t>& rows, std::vector<double>& o) {
+namespace {
+
+/// delta of every input for one resample (before the bias reduction).
+struct DeltaStatistic {
+  const std::vector<double>& y;
+  const Ranks& ranks;
+  const DensityGrid& grid;
+  std::size_t classes;
+  BinnedKde kde;
+  std::vector<double> fy = std::vector<double>(kGrid), fc = std::vector<double>(kGrid);
+  std::vector<std::size_t> start = {}, ord = {}, members = {};
+
+  void operator()(const std::vector<std::size_t>& rows, std::vector<double>& o) {
+    const std::size_t n = rows.size();
     kde.estimate(y, rows, fy);
-    for (std::size_t i = 0; i < d; ++i) {
+    for (std::size_t i = 0; i < ranks.x.size(); ++i) {
       order_elements(ranks.x[i], rows, start, ord);
       double delta = 0.0;
       for (std::size_t c = 0; c < classes; ++c) {
@@ -253,10 +273,25 @@ MethodIndices delta_analysis(const Matrix& x, const std::vector<double>& y,
       }
       o[i] = delta;
     }
+  }
+};
+
+}  // namespace
+
+MethodIndices delta_analysis(const Matrix& x, const std::vector<double>& y,
+                             const BootstrapOptions& opt) {
+  const std::size_t d = check_given(x, y, 20, opt, "delta_analysis");
+  MethodIndices out;
+  if (detail::constant_output(y, "delta", y.size(), &out)) return out;
+  const std::size_t n = y.size(), classes = delta_classes(n);
+  const Ranks ranks = make_ranks(x, y);
+  const DensityGrid grid = make_grid(y, classes);
+  const detail::StatisticFactory make = [&] {
+    return detail::Statistic(DeltaStatistic{y, ranks, grid, classes, BinnedKde(grid)});
   };
   std::vector<double> point(d);
-  stat(detail::identity_rows(n), point);
-  auto reps = detail::bootstrap(n, d, opt, stat);
+  make()(detail::identity_rows(n), point);
+  auto reps = detail::bootstrap(n, d, opt, make);
   // Bias reduction (Plischke et al. 2013): 2 d - mean(d*), and its replicates 2 d - d*.
   for (std::size_t i = 0; i < d; ++i) {
     double mean = 0.0;
@@ -299,20 +334,22 @@ double ks_distance(const std::vector<Member>& m, std::size_t n) {
   return ks;
 }
 
-}  // namespace
+/// pawn (median) and pawn_max of every input for one resample.
+struct PawnStatistic {
+  const std::vector<double>& y;
+  const Ranks& ranks;
+  std::size_t intervals;
+  std::vector<std::size_t> start = {}, by_y = {}, by_x = {}, chunk = {}, lower = {}, upper = {};
+  std::vector<std::vector<Member>> lists = {};
+  std::vector<double> ks = {};
 
-MethodIndices pawn_analysis(const Matrix& x, const std::vector<double>& y,
-                            const BootstrapOptions& opt, std::size_t intervals) {
-  if (intervals < 2) invalid("pawn_analysis: intervals must be >= 2, got " + std::to_string(intervals));
-  const std::size_t d = check_given(x, y, 5 * intervals, opt, "pawn_analysis");
-  MethodIndices out;
-  if (detail::constant_output(y, "pawn", y.size(), &out)) return out;
-  const std::size_t n = y.size();
-  const Ranks ranks = make_ranks(x, y);
-  std::vector<std::size_t> start, by_y, by_x, chunk(n), lower(n), upper(n);
-  std::vector<std::vector<Member>> lists(intervals);
-  std::vector<double> ks(intervals);
-  const detail::Statistic stat = [&](const std::vector<std::size_t>& rows, std::vector<double>& o) {
+  void operator()(const std::vector<std::size_t>& rows, std::vector<double>& o) {
+    const std::size_t n = rows.size(), d = ranks.x.size();
+    chunk.resize(n);
+    lower.resize(n);
+    upper.resize(n);
+    lists.resize(intervals);
+    ks.resize(intervals);
     order_elements(ranks.y, rows, start, by_y);
     for (std::size_t k = 0; k < n;) {  // counts below / up to each element's value
       std::size_t end = k + 1;
@@ -332,10 +369,25 @@ MethodIndices pawn_analysis(const Matrix& x, const std::vector<double>& y,
       o[i] = median_of(ks);
       o[d + i] = *std::max_element(ks.begin(), ks.end());
     }
+  }
+};
+
+}  // namespace
+
+MethodIndices pawn_analysis(const Matrix& x, const std::vector<double>& y,
+                            const BootstrapOptions& opt, std::size_t intervals) {
+  if (intervals < 2) invalid("pawn_analysis: intervals must be >= 2, got " + std::to_string(intervals));
+  const std::size_t d = check_given(x, y, 5 * intervals, opt, "pawn_analysis");
+  MethodIndices out;
+  if (detail::constant_output(y, "pawn", y.size(), &out)) return out;
+  const std::size_t n = y.size();
+  const Ranks ranks = make_ranks(x, y);
+  const detail::StatisticFactory make = [&] {
+    return detail::Statistic(PawnStatistic{y, ranks, intervals});
   };
   std::vector<double> point(2 * d);
-  stat(detail::identity_rows(n), point);
-  auto reps = detail::bootstrap(n, 2 * d, opt, stat);
+  make()(detail::identity_rows(n), point);
+  auto reps = detail::bootstrap(n, 2 * d, opt, make);
   out.method = "pawn";
   out.units = n;
   out.variance = detail::population_variance(y);

@@ -4,6 +4,7 @@
 #include "stickslip/studies/sa_given.h"
 
 #include <gtest/gtest.h>
+#include <omp.h>
 
 #include <cmath>
 #include <string>
@@ -114,4 +115,23 @@ TEST(GivenData, BootstrapIsSeededAndConstantOutputsAreUndefined) {
   }
   EXPECT_THROW(ss::delta_analysis(s.x, std::vector<double>(3, 1.0), bootstrap(10)), std::invalid_argument);
   EXPECT_THROW(ss::pawn_analysis(s.x, s.y, bootstrap(10), 1), std::invalid_argument);
+}
+
+// The bootstrap draws its resamples in sequence and computes them in parallel: the intervals are
+// the same with one thread and with four.
+TEST(GivenData, IntervalsDoNotDependOnTheThreadCount) {
+  const auto s = linear_sample(2048, 5);
+  const int before = omp_get_max_threads();
+  omp_set_num_threads(1);
+  const auto one = ss::delta_analysis(s.x, s.y, bootstrap(200, 9));
+  const auto pone = ss::pawn_analysis(s.x, s.y, bootstrap(200, 9));
+  omp_set_num_threads(4);
+  const auto four = ss::delta_analysis(s.x, s.y, bootstrap(200, 9));
+  const auto pfour = ss::pawn_analysis(s.x, s.y, bootstrap(200, 9));
+  omp_set_num_threads(before);
+  for (std::size_t i = 0; i < kA.size(); ++i) {
+    EXPECT_EQ(one.find("delta")->ci[i].lo, four.find("delta")->ci[i].lo);
+    EXPECT_EQ(one.find("delta")->ci[i].hi, four.find("delta")->ci[i].hi);
+    EXPECT_EQ(pone.find("pawn_max")->ci[i].hi, pfour.find("pawn_max")->ci[i].hi);
+  }
 }
