@@ -27,8 +27,9 @@
 namespace {
 
 namespace fs = std::filesystem;
-namespace ss = stickslip::sensitivity;
+namespace ss = stickslip::studies::sensitivity;
 using namespace stickslip::studies;
+using stickslip::store::Store;
 using Clock = std::chrono::steady_clock;
 
 double since(Clock::time_point t0) {

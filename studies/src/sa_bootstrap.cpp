@@ -12,7 +12,7 @@
 
 #include <boost/random/uniform_int_distribution.hpp>
 
-namespace stickslip::sensitivity {
+namespace stickslip::studies::sensitivity {
 
 bool BootstrapOptions::IsValid(std::string* why) const {
   auto fail = [&](const std::string& m) {
@@ -181,4 +181,4 @@ double population_variance(const std::vector<double>& v) {
 }
 
 }  // namespace detail
-}  // namespace stickslip::sensitivity
+}  // namespace stickslip::studies::sensitivity

@@ -11,7 +11,7 @@
 
 #include "stickslip/studies/sa_indices.h"
 
-namespace stickslip::sensitivity::detail {
+namespace stickslip::studies::sensitivity::detail {
 
 using Rng = std::mt19937_64;
 
@@ -63,4 +63,4 @@ Interval percentile_interval(std::vector<double> replicates, double confidence);
 /// Population variance of v (0 for fewer than two values).
 double population_variance(const std::vector<double>& v);
 
-}  // namespace stickslip::sensitivity::detail
+}  // namespace stickslip::studies::sensitivity::detail

@@ -8,7 +8,7 @@
 
 #include "sa_bootstrap.h"
 
-namespace stickslip::sensitivity {
+namespace stickslip::studies::sensitivity {
 
 using detail::invalid;
 
@@ -114,4 +114,4 @@ MethodIndices dgsm_analysis(const Matrix& x, const std::vector<double>& y, std::
   return out;
 }
 
-}  // namespace stickslip::sensitivity
+}  // namespace stickslip::studies::sensitivity

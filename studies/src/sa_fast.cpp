@@ -12,7 +12,7 @@
 #include "sa_bootstrap.h"
 #include "sa_harmonics.h"
 
-namespace stickslip::sensitivity {
+namespace stickslip::studies::sensitivity {
 
 using detail::invalid;
 
@@ -169,4 +169,4 @@ Matrix rbd_design(std::size_t n, std::size_t d, std::uint64_t seed) {
   return x;
 }
 
-}  // namespace stickslip::sensitivity
+}  // namespace stickslip::studies::sensitivity

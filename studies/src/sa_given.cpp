@@ -11,7 +11,7 @@
 #include "sa_bootstrap.h"
 #include "sa_harmonics.h"
 
-namespace stickslip::sensitivity {
+namespace stickslip::studies::sensitivity {
 
 using detail::invalid;
 
@@ -396,4 +396,4 @@ MethodIndices pawn_analysis(const Matrix& x, const std::vector<double>& y,
   return out;
 }
 
-}  // namespace stickslip::sensitivity
+}  // namespace stickslip::studies::sensitivity

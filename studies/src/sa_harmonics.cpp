@@ -4,7 +4,7 @@
 #include <cmath>
 #include <numbers>
 
-namespace stickslip::sensitivity::detail {
+namespace stickslip::studies::sensitivity::detail {
 
 Roots::Roots(std::size_t n) : cos_(n), sin_(n) {
   for (std::size_t t = 0; t < n; ++t) {
@@ -30,4 +30,4 @@ double Roots::power(const std::vector<double>& z, double mean, std::size_t f) co
   return (re * re + im * im) / (nn * nn);
 }
 
-}  // namespace stickslip::sensitivity::detail
+}  // namespace stickslip::studies::sensitivity::detail

@@ -4,7 +4,7 @@
 #include <cstddef>
 #include <vector>
 
-namespace stickslip::sensitivity::detail {
+namespace stickslip::studies::sensitivity::detail {
 
 /// cos and sin of 2 pi t / n for t < n.
 class Roots {
@@ -18,4 +18,4 @@ class Roots {
   std::vector<double> cos_, sin_;
 };
 
-}  // namespace stickslip::sensitivity::detail
+}  // namespace stickslip::studies::sensitivity::detail

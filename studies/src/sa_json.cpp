@@ -4,7 +4,7 @@
 #include <cmath>
 #include <cstdio>
 
-namespace stickslip::sensitivity {
+namespace stickslip::studies::sensitivity {
 namespace {
 
 using nlohmann::json;
@@ -65,4 +65,4 @@ std::string display_interval(const Interval& ci, const char* format) {
   return "[" + end(ci.lo) + ", " + end(ci.hi) + "]";
 }
 
-}  // namespace stickslip::sensitivity
+}  // namespace stickslip::studies::sensitivity

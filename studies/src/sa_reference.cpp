@@ -14,7 +14,7 @@
 
 #include "stickslip/studies/sensitivity.h"
 
-namespace stickslip::sensitivity {
+namespace stickslip::studies::sensitivity {
 namespace {
 
 constexpr double kPi = std::numbers::pi;
@@ -152,4 +152,4 @@ PawnExact linear_gaussian_pawn_exact(const std::vector<double>& a, const std::ve
   return out;
 }
 
-}  // namespace stickslip::sensitivity
+}  // namespace stickslip::studies::sensitivity

@@ -12,7 +12,7 @@
 
 #include "sa_bootstrap.h"
 
-namespace stickslip::sensitivity {
+namespace stickslip::studies::sensitivity {
 
 using detail::invalid;
 
@@ -191,4 +191,4 @@ std::vector<ConvergenceStep> sobol_convergence(const std::vector<double>& y,
   return steps;
 }
 
-}  // namespace stickslip::sensitivity
+}  // namespace stickslip::studies::sensitivity

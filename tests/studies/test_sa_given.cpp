@@ -15,7 +15,7 @@
 
 namespace {
 
-namespace ss = stickslip::sensitivity;
+namespace ss = stickslip::studies::sensitivity;
 using stickslip::testing::evaluate;
 using stickslip::testing::report;
 using stickslip::testing::bootstrap;

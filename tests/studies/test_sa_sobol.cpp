@@ -13,7 +13,7 @@
 
 namespace {
 
-namespace ss = stickslip::sensitivity;
+namespace ss = stickslip::studies::sensitivity;
 using stickslip::testing::evaluate;
 using stickslip::testing::ishigami_unit;
 using stickslip::testing::report;

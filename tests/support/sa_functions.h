@@ -16,7 +16,7 @@
 
 namespace stickslip::testing {
 
-inline std::vector<double> evaluate(const sensitivity::Matrix& rows,
+inline std::vector<double> evaluate(const studies::sensitivity::Matrix& rows,
                                     const std::function<double(const std::vector<double>&)>& f) {
   std::vector<double> y;
   y.reserve(rows.size());
@@ -28,14 +28,14 @@ inline std::vector<double> evaluate(const sensitivity::Matrix& rows,
 inline double ishigami_unit(const std::vector<double>& u) {
   std::vector<double> x(u.size());
   for (std::size_t i = 0; i < u.size(); ++i) x[i] = -std::numbers::pi + 2.0 * std::numbers::pi * u[i];
-  return sensitivity::ishigami(x);
+  return studies::sensitivity::ishigami(x);
 }
 
 /// Rows of independent N(0, sigma_i^2) inputs from unit-cube rows (inverse CDF).
-inline sensitivity::Matrix gaussian_rows(const sensitivity::Matrix& unit,
+inline studies::sensitivity::Matrix gaussian_rows(const studies::sensitivity::Matrix& unit,
                                          const std::vector<double>& sigma) {
   const boost::math::normal n01;
-  sensitivity::Matrix x = unit;
+  studies::sensitivity::Matrix x = unit;
   for (auto& row : x)
     for (std::size_t i = 0; i < row.size(); ++i) row[i] = sigma[i] * boost::math::quantile(n01, row[i]);
   return x;
@@ -48,8 +48,8 @@ inline double linear(const std::vector<double>& x, const std::vector<double>& a)
   return y;
 }
 
-inline sensitivity::BootstrapOptions bootstrap(std::size_t resamples, std::uint64_t seed = 1) {
-  sensitivity::BootstrapOptions o;
+inline studies::sensitivity::BootstrapOptions bootstrap(std::size_t resamples, std::uint64_t seed = 1) {
+  studies::sensitivity::BootstrapOptions o;
   o.resamples = resamples;
   o.seed = seed;
   return o;

@@ -23,7 +23,7 @@
 
 #include "stickslip/studies/sa_indices.h"
 
-namespace stickslip::sensitivity {
+namespace stickslip::studies::sensitivity {
 
 /// n base points (a d-dimensional scrambled Sobol sequence), each followed by its d perturbed
 /// copies: rows [j (d + 1), (j + 1)(d + 1)) are x_j, x_j + h e_1, ..., x_j + h e_d, with -h
@@ -42,4 +42,4 @@ MethodIndices dgsm_analysis(const Matrix& x, const std::vector<double>& y, std::
 /// The Poincare constant of U(0, 1), 1 / pi^2.
 double unit_uniform_poincare();
 
-}  // namespace stickslip::sensitivity
+}  // namespace stickslip::studies::sensitivity

@@ -33,7 +33,7 @@
 
 #include "stickslip/studies/sa_indices.h"
 
-namespace stickslip::sensitivity {
+namespace stickslip::studies::sensitivity {
 
 struct EfastShape {
   std::size_t n = 0;           ///< points per search curve, > 4 M^2
@@ -65,4 +65,4 @@ MethodIndices efast_analysis(const std::vector<double>& y, const EfastShape& sha
 /// Tarantola et al. (2006) random balance design: n rows of d columns (see above). n >= 2.
 Matrix rbd_design(std::size_t n, std::size_t d, std::uint64_t seed);
 
-}  // namespace stickslip::sensitivity
+}  // namespace stickslip::studies::sensitivity

@@ -46,7 +46,7 @@
 
 #include "stickslip/studies/sa_indices.h"
 
-namespace stickslip::sensitivity {
+namespace stickslip::studies::sensitivity {
 
 /// RBD-FAST first-order indices "S1" of every column of x (n rows of d columns, n > 2 M).
 MethodIndices rbd_fast_analysis(const Matrix& x, const std::vector<double>& y,
@@ -64,4 +64,4 @@ MethodIndices pawn_analysis(const Matrix& x, const std::vector<double>& y,
 /// The class count of the delta estimator for n points (Plischke et al. 2013, as SALib).
 std::size_t delta_classes(std::size_t n);
 
-}  // namespace stickslip::sensitivity
+}  // namespace stickslip::studies::sensitivity

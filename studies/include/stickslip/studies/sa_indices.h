@@ -19,7 +19,7 @@
 
 #include "stickslip/studies/sensitivity.h"
 
-namespace stickslip::sensitivity {
+namespace stickslip::studies::sensitivity {
 
 /// How the intervals are made: percentile bootstrap over the method's resampling units (base
 /// rows for Sobol and DGSM, replicates for eFAST, points for the given-data methods).
@@ -56,4 +56,4 @@ struct MethodIndices {
   const IndexValues* find(const std::string& name) const;
 };
 
-}  // namespace stickslip::sensitivity
+}  // namespace stickslip::studies::sensitivity

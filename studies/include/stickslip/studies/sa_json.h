@@ -22,7 +22,7 @@
 
 #include "stickslip/studies/sa_indices.h"
 
-namespace stickslip::sensitivity {
+namespace stickslip::studies::sensitivity {
 
 /// Fills "indices" (and "second_order" when the result has pairs) of `out` from m, the parameter
 /// names in design order. An undefined m gives "indices": [].
@@ -36,4 +36,4 @@ std::string display_index(double value, const Interval* ci, const char* format =
 /// "[lo, hi]" with `format`, "–" for a missing end.
 std::string display_interval(const Interval& ci, const char* format = "%.3f");
 
-}  // namespace stickslip::sensitivity
+}  // namespace stickslip::studies::sensitivity

@@ -21,7 +21,7 @@
 #include <cstddef>
 #include <vector>
 
-namespace stickslip::sensitivity {
+namespace stickslip::studies::sensitivity {
 
 /// {S12, S13, S23} of the Ishigami function.
 std::array<double, 3> ishigami_second_order_exact(double a = 7.0, double b = 0.1);
@@ -42,4 +42,4 @@ struct PawnExact {
 PawnExact linear_gaussian_pawn_exact(const std::vector<double>& a,
                                      const std::vector<double>& sigma, std::size_t intervals);
 
-}  // namespace stickslip::sensitivity
+}  // namespace stickslip::studies::sensitivity

@@ -35,7 +35,7 @@
 
 #include "stickslip/studies/sa_indices.h"
 
-namespace stickslip::sensitivity {
+namespace stickslip::studies::sensitivity {
 
 enum class SaltelliLayout { kBlocks, kRows };
 
@@ -76,4 +76,4 @@ std::vector<ConvergenceStep> sobol_convergence(const std::vector<double>& y,
                                                const BootstrapOptions& opt,
                                                std::size_t n_min = 16);
 
-}  // namespace stickslip::sensitivity
+}  // namespace stickslip::studies::sensitivity
