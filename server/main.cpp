@@ -21,6 +21,7 @@
 #include "stickslip/server/diagnosis_worker.h"
 #include "stickslip/server/http_server.h"
 #include "stickslip/server/worker.h"
+#include "stickslip/store/writer_lock.h"
 #include "stickslip/studies/runner.h"
 
 namespace {
@@ -143,13 +144,18 @@ int main(int argc, char** argv) {
       std::cerr << "stickslipd: " << why << "\n";
       return 2;
     }
-    server::Worker worker(api.db, work, &studies::run_study);
-    server::DiagnosisWorker diagnoses(api.db, diag, &server::run_diagnosis);
-    server::Api handlers(api, &worker, &diagnoses);
+    auto health = std::make_shared<server::Health>();
+    server::Worker worker(api.db, work, &studies::run_study, health);
+    server::DiagnosisWorker diagnoses(api.db, diag, &server::run_diagnosis, health);
+    // Opens the store: takes its writer lock (a store has one writer; another holder is named
+    // in the error, exit 1) and checks a damaged file before anything is written to it.
+    server::Api handlers(api, &worker, &diagnoses, health);
+    store::WriterLock lock = store::WriterLock::acquire(api.db, "stickslipd");
     server::HttpServer http(
         net, [&handlers](const server::Request& r) { return handlers.handle(r); },
         [&handlers](const server::Request& r) { return handlers.handle_cached(r); });
     const unsigned short port = http.port();
+    lock.set_url("http://" + net.bind + ":" + std::to_string(port));
     if (!port_file.empty()) write_atomically(port_file, std::to_string(port) + "\n");
     std::printf("stickslipd listening on http://%s:%u (store %s)\n", net.bind.c_str(), port,
                 db.c_str());

@@ -17,6 +17,7 @@ int run(int argc, char** argv) {
   add_diagnosis_command(app, exit_code);
   add_table_command(app, exit_code);
   add_study_command(app, exit_code);
+  add_store_command(app, exit_code);
   add_remote_commands(app, exit_code);
   add_map_command(app, exit_code);
   add_indices_command(app, exit_code);

@@ -3,11 +3,13 @@
 #include <cstdio>
 #include <fstream>
 #include <iostream>
+#include <optional>
 #include <sstream>
 
 #include "local_store.h"
 #include "stickslip/client/cli.h"
 #include "stickslip/studies/export.h"
+#include "stickslip/store/writer_lock.h"
 #include "stickslip/studies/runner.h"
 
 namespace stickslip::client {
@@ -28,6 +30,29 @@ struct RunArgs {
   std::size_t max_runs = studies::Limits{}.max_runs;
   bool quiet = false, json_out = false;
 };
+
+/// Opens the store for `study run` and creates or finds the study. This command is the store's
+/// one writer until it ends (writer_lock.h): a store that a server owns is refused, naming the
+/// server and the command that submits the study to it, rather than run behind its back. A path
+/// that cannot be created or a foreign file is bad input too, left untouched.
+int open_for_run(const RunArgs& a, const studies::StudySpec& spec, store::StudyRecord* study,
+                 std::optional<store::WriterLock>* lock) {
+  try {
+    store::Store store = store::Store::open(a.db);
+    lock->emplace(store::WriterLock::acquire(a.db, "stickslip study run"));
+    *study = studies::create_or_find_study(store, spec);
+    return kOk;
+  } catch (const store::StoreLockedError& e) {
+    std::cerr << "stickslip study run: " << e.what() << "\n";
+    if (e.holder() && !e.holder()->url.empty())
+      std::cerr << "  submit the study to that server instead: stickslip submit " << a.spec_file
+                << " --server " << e.holder()->url << "\n";
+    return kBadInput;
+  } catch (const store::StoreError& e) {
+    std::cerr << "stickslip study run: " << e.what() << "\n";
+    return kBadInput;
+  }
+}
 
 int study_run(const RunArgs& a) {
   // 1. The spec: every problem is reported, nothing is written.
@@ -51,15 +76,10 @@ int study_run(const RunArgs& a) {
   }
   const studies::StudySpec& spec = *parsed.spec;
 
-  // 2. The store: a path that cannot be created or a foreign file is bad input, left untouched.
+  // 2. The store (open_for_run): a bad or busy store is bad input, left untouched.
   store::StudyRecord study;
-  try {
-    store::Store store = store::Store::open(a.db);
-    study = studies::create_or_find_study(store, spec);
-  } catch (const store::StoreError& e) {
-    std::cerr << "stickslip study run: " << e.what() << "\n";
-    return kBadInput;
-  }
+  std::optional<store::WriterLock> lock;
+  if (const int code = open_for_run(a, spec, &study, &lock); code != kOk) return code;
   if (!a.quiet)
     std::cerr << "study " << study.id << " (" << study.name << "): " << spec.run_count()
               << " runs, database " << a.db << "\n";

@@ -1,5 +1,6 @@
 // The diagnosis pipeline (see diagnose.h): calibrate, choose, extend, test, name.
 #include "stickslip/diagnosis/diagnose.h"
+#include "stickslip/diagnosis/diagnosis_request.h"
 
 #include <omp.h>
 
@@ -34,13 +35,17 @@ bool DiagnoseOptions::IsValid(std::string* why) const {
   if (!pos(short_window)) return fail("short_window = " + std::to_string(short_window) + ": must be > 0");
   if (!pos(rtol)) return fail("rtol = " + std::to_string(rtol) + ": must be > 0");
   if (!pos(rtol_score)) return fail("rtol_score = " + std::to_string(rtol_score) + ": must be > 0");
-  if (max_evals_base < 10) return fail("max_evals_base = " + std::to_string(max_evals_base) + ": must be >= 10");
-  if (max_evals_candidate < 10)
-    return fail("max_evals_candidate = " + std::to_string(max_evals_candidate) + ": must be >= 10");
+  // The bounds of the options a request may set come from the request schema (one source).
+  for (const auto& [name, value] : {std::pair<const char*, int>{"max_evals_base", max_evals_base},
+                                    {"max_evals_candidate", max_evals_candidate},
+                                    {"max_evals_fold", max_evals_fold}}) {
+    const int min = option_minimum(name);
+    if (value < min)
+      return fail(std::string(name) + " = " + std::to_string(value) + ": must be >= " +
+                  std::to_string(min));
+  }
   if (max_evals_profile < 4)
     return fail("max_evals_profile = " + std::to_string(max_evals_profile) + ": must be >= 4");
-  if (max_evals_fold < 5)
-    return fail("max_evals_fold = " + std::to_string(max_evals_fold) + ": must be >= 5");
   if (!(alpha > 0 && alpha < 1)) return fail("alpha = " + std::to_string(alpha) + ": must be in (0, 1)");
   if (!(min_gain >= 0 && min_gain < 1)) return fail("min_gain = " + std::to_string(min_gain) + ": must be in [0, 1)");
   for (engine::ExtensionKind k : candidates)

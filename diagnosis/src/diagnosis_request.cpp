@@ -27,6 +27,14 @@ std::string options_pointer(const std::string& why) {
 
 }  // namespace
 
+int option_minimum(const std::string& option) {
+  static const json options = json::parse(generated::kDiagnosisRequestSchemaJson)
+                                  .at("$defs")
+                                  .at("options")
+                                  .at("properties");
+  return options.at(option).at("minimum").get<int>();
+}
+
 std::string_view diagnosis_request_schema_text() noexcept {
   return generated::kDiagnosisRequestSchemaJson;
 }

@@ -6,18 +6,16 @@
 #include <cstdio>
 
 #include "api_util.h"
-#include "stickslip/diagnosis/diagnosis_request.h"
 #include "stickslip/server/dashboard.h"
-#include "stickslip/studies/export.h"
 #include "stickslip/common/json_schema.h"
+#include "stickslip/diagnosis/diagnosis_request.h"
 #include "stickslip/store/store.h"
+#include "stickslip/studies/export.h"
 
 namespace stickslip::server {
 
-using detail::is_json_content_type;
 using detail::is_valid_id;
 using detail::store_failure;
-using detail::unknown_study;
 using nlohmann::json;
 using store::StoreError;
 using store::StudyRecord;
@@ -87,20 +85,6 @@ json study_json(const StudyRecord& rec, const store::RunCounts& counts, bool wit
   return j;
 }
 
-Response study_response(int status, store::Store& store, const StudyRecord& rec) {
-  Response r = json_response(status, study_json(rec, store.count_runs(rec.id), true));
-  r.set_header("Location", "/v1/studies/" + rec.id);
-  return r;
-}
-
-Response idempotency_conflict(const std::string& key, const std::string& id) {
-  return problem(422, "idempotency-key-reused", "Idempotency-Key reused",
-                 "Idempotency-Key \"" + key + "\" was already used for study " + id +
-                     " with a different request body; use a new key for a new study",
-                 {FieldError::header("Idempotency-Key", "already used with another body")},
-                 "/v1/studies");
-}
-
 /// A strong entity tag of a body: its 64-bit FNV-1a hash and its length, quoted. Two bodies with
 /// the same tag are, in practice, the same bytes; the tag of an unchanged study is the same in
 /// every process (a few lines here because the standard hashes promise no stable value).
@@ -147,29 +131,23 @@ Response conditional_response(const Request& r, const Response& full) {
   return nm;
 }
 
-Api::Api(ApiOptions options, Scheduler* scheduler, DiagnosisScheduler* diagnoses)
+Api::Api(ApiOptions options, JobScheduler* scheduler, JobScheduler* diagnoses,
+         std::shared_ptr<const Health> health)
     : options_(std::move(options)),
-      scheduler_(scheduler),
-      diagnoses_(diagnoses),
+      health_(std::move(health)),
       pool_(options_.db) {
   std::string why;
   if (!options_.IsValid(&why)) throw std::invalid_argument("ApiOptions: " + why);
   auto id_of = [](const PathParams& p) { return p.at("id"); };
-  router_.add("POST", "/v1/studies",
-              [this](const Request& r, const PathParams&) { return create_study(r); });
-  router_.add("GET", "/v1/studies",
-              [this](const Request& r, const PathParams&) { return list_studies(r); });
-  router_.add("GET", "/v1/studies/{id}", [this, id_of](const Request& r, const PathParams& p) {
-    return get_study(r, id_of(p));
+  studies_ = study_resource(scheduler);
+  diagnoses_ = diagnosis_resource(diagnoses);
+  add_job_routes(studies_, [this](const Request& r, const std::string& id) {
+    return get_study(r, id);
   });
   router_.add("GET", "/v1/studies/{id}/runs",
               [this, id_of](const Request& r, const PathParams& p) { return get_runs(r, id_of(p)); });
   router_.add("GET", "/v1/studies/{id}/map",
               [this, id_of](const Request& r, const PathParams& p) { return get_map(r, id_of(p)); });
-  router_.add("POST", "/v1/studies/{id}:cancel",
-              [this, id_of](const Request& r, const PathParams& p) {
-                return cancel_study(r, id_of(p));
-              });
   router_.add("GET", "/v1/studies/{id}/indices",
               [this, id_of](const Request& r, const PathParams& p) {
                 return get_indices(r, id_of(p));
@@ -184,12 +162,8 @@ Api::Api(ApiOptions options, Scheduler* scheduler, DiagnosisScheduler* diagnoses
               [this](const Request& r, const PathParams& p) {
                 return get_report_file(r, p.at("date"), "plots", p.at("file"));
               });
-  router_.add("POST", "/v1/diagnoses",
-              [this](const Request& r, const PathParams&) { return create_diagnosis(r); });
-  router_.add("GET", "/v1/diagnoses",
-              [this](const Request& r, const PathParams&) { return list_diagnoses(r); });
-  router_.add("GET", "/v1/diagnoses/{id}", [this, id_of](const Request& r, const PathParams& p) {
-    return get_diagnosis(r, id_of(p));
+  add_job_routes(diagnoses_, [this](const Request& r, const std::string& id) {
+    return get_job(r, diagnoses_, id);
   });
   router_.add("GET", "/v1/diagnoses/{id}/traces",
               [this, id_of](const Request& r, const PathParams& p) {
@@ -198,10 +172,6 @@ Api::Api(ApiOptions options, Scheduler* scheduler, DiagnosisScheduler* diagnoses
   router_.add("GET", "/v1/diagnoses/{id}/traces/{run}",
               [this, id_of](const Request& r, const PathParams& p) {
                 return get_diagnosis_trace(r, id_of(p), p.at("run"));
-              });
-  router_.add("POST", "/v1/diagnoses/{id}:cancel",
-              [this, id_of](const Request& r, const PathParams& p) {
-                return cancel_diagnosis(r, id_of(p));
               });
   // The dashboard: index.html at / and its files at /ui/<path> (up to three segments deep).
   router_.add("GET", "/", [this](const Request& r, const PathParams&) {
@@ -254,6 +224,58 @@ void add_security_headers(Response& r) {
 
 }  // namespace
 
+JobResource Api::study_resource(JobScheduler* scheduler) const {
+  JobResource res;
+  res.kind = "study";
+  res.collection = "/v1/studies";
+  res.list_key = "studies";
+  res.noun = "study";
+  res.title = "Study";
+  res.request_noun = "a study";
+  res.max_body_bytes = options_.max_body_bytes;
+  res.max_body_option = "--max-body";
+  res.scheduler = scheduler;
+  res.name_filter = true;
+  res.detail_columns = res.list_columns = {.request = true, .result = false};
+  res.to_json = [](const store::JobRecord& job, bool detail) {
+    return study_json(store::study_from_job(job), store::run_counts_of(job), detail);
+  };
+  res.check = [this](const json&, const Request& r) -> std::variant<store::NewJob, Response> {
+    auto parsed = studies::parse_study(r.body, options_.limits);
+    if (!parsed.ok()) {
+      return problem(422, "invalid-study", "Invalid study",
+                     std::to_string(parsed.errors.size()) + " problem(s) in the study: " +
+                         common::to_string(parsed.errors),
+                     detail::body_errors(parsed.errors), "/v1/studies");
+    }
+    // Stored like `stickslip study run` stores it (runner.h create_or_find_study): the
+    // canonical spec, with every default filled in, and its hash.
+    const auto& spec = *parsed.spec;
+    store::NewJob job;
+    job.kind = "study";
+    job.name = spec.name();
+    job.request_json = spec.canonical_json();
+    job.request_hash = store::param_hash(job.request_json);
+    job.progress_total = static_cast<std::int64_t>(spec.run_count());
+    return job;
+  };
+  return res;
+}
+
+void Api::add_job_routes(const JobResource& res,
+                         std::function<Response(const Request&, const std::string&)> get) {
+  router_.add("POST", res.collection,
+              [this, &res](const Request& r, const PathParams&) { return create_job(r, res); });
+  router_.add("GET", res.collection,
+              [this, &res](const Request& r, const PathParams&) { return list_jobs(r, res); });
+  router_.add("GET", res.collection + "/{id}",
+              [get](const Request& r, const PathParams& p) { return get(r, p.at("id")); });
+  router_.add("POST", res.collection + "/{id}:cancel",
+              [this, &res](const Request& r, const PathParams& p) {
+                return cancel_job(r, res, p.at("id"));
+              });
+}
+
 Response Api::handle(const Request& request) const {
   Response r = router_.route(request);
   if (!r.header("Cache-Control")) r.set_header("Cache-Control", "no-store");
@@ -296,127 +318,6 @@ std::optional<Response> Api::check_token(const Request& r) const {
   return std::nullopt;
 }
 
-Response Api::create_study(const Request& r) const {
-  const std::string instance = "/v1/studies";
-  if (auto denied = check_token(r)) return *denied;
-  const auto content_type = r.header("Content-Type");
-  if (!content_type || !is_json_content_type(*content_type)) {
-    return problem(415, "unsupported-media-type", "Unsupported media type",
-                   "a study must be sent as application/json, got " +
-                       (content_type ? "\"" + *content_type + "\"" : std::string("no Content-Type")),
-                   {FieldError::header("Content-Type", "expected application/json")}, instance);
-  }
-  if (r.body.size() > options_.max_body_bytes) {
-    return problem(413, "body-too-large", "Request body too large",
-                   "the body has " + std::to_string(r.body.size()) + " bytes; the limit is " +
-                       std::to_string(options_.max_body_bytes),
-                   {}, instance);
-  }
-  const auto key = r.header("Idempotency-Key");
-  if (key) {
-    bool ok = !key->empty() && key->size() <= 255;
-    for (const char c : *key) ok = ok && c > ' ' && c <= '~';
-    if (!ok) {
-      return problem(400, "invalid-header", "Invalid header",
-                     "Idempotency-Key must be 1 to 255 visible ASCII characters",
-                     {FieldError::header("Idempotency-Key", "must be 1 to 255 visible ASCII "
-                                                            "characters")},
-                     instance);
-    }
-  }
-  if (common::json_nesting_depth(r.body) > common::kMaxJsonDepth) {
-    return problem(400, "malformed-json", "Malformed JSON",
-                   "the request body nests arrays and objects more than " +
-                       std::to_string(common::kMaxJsonDepth) + " levels deep",
-                   {FieldError::body("", "nesting deeper than " + std::to_string(common::kMaxJsonDepth) +
-                                             " levels")},
-                   instance);
-  }
-  std::vector<common::SpecError> json_errors;
-  const auto doc = common::parse_json(r.body, &json_errors);
-  if (!doc) {
-    std::vector<FieldError> fields;
-    for (const auto& e : json_errors) fields.push_back(FieldError::body(e.pointer, e.message));
-    return problem(400, "malformed-json", "Malformed JSON",
-                   "the request body is not valid JSON: " + common::to_string(json_errors),
-                   fields, instance);
-  }
-  // The request identity for Idempotency-Key: the hash of the canonical (sorted-key, compact)
-  // JSON, so a replay that only differs in whitespace or key order is still a replay.
-  const std::string request_hash = store::param_hash(doc->dump());
-  try {
-    auto store = pool_.acquire();
-    if (key) {
-      if (auto prior = store->find_by_idempotency_key(*key)) {
-        if (prior->request_hash != request_hash) return idempotency_conflict(*key, prior->id);
-        Response replay = study_response(202, *store, *prior);
-        replay.set_header("Idempotent-Replayed", "true");
-        return replay;
-      }
-    }
-    auto parsed = studies::parse_study(r.body, options_.limits);
-    if (!parsed.ok()) {
-      std::vector<FieldError> fields;
-      for (const auto& e : parsed.errors) fields.push_back(FieldError::body(e.pointer, e.message));
-      return problem(422, "invalid-study", "Invalid study",
-                     std::to_string(parsed.errors.size()) + " problem(s) in the study: " +
-                         common::to_string(parsed.errors),
-                     fields, instance);
-    }
-    const auto& spec = *parsed.spec;
-    store::NewStudy ns;
-    ns.name = spec.name();
-    // Stored like `stickslip study run` stores it (runner.h create_or_find_study): the canonical
-    // spec, with every default filled in, and its hash.
-    ns.spec_json = spec.canonical_json();
-    ns.spec_hash = store::param_hash(ns.spec_json);
-    ns.total_runs = static_cast<std::int64_t>(spec.run_count());
-    ns.idempotency_key = key;
-    if (key) ns.request_hash = request_hash;
-    const auto created = store->create_study(ns);
-    if (!created.created) {  // the same key was stored concurrently
-      if (created.study.request_hash != request_hash)
-        return idempotency_conflict(*key, created.study.id);
-      Response replay = study_response(202, *store, created.study);
-      replay.set_header("Idempotent-Replayed", "true");
-      return replay;
-    }
-    if (scheduler_ != nullptr) scheduler_->notify();
-    return study_response(202, *store, created.study);
-  } catch (const StoreError& e) {
-    return store_failure(e, instance);
-  }
-}
-
-Response Api::list_studies(const Request& r) const {
-  const std::string instance = "/v1/studies";
-  Response error;
-  const auto page = detail::id_page_params(r, options_.default_page_size,
-                                           options_.max_page_size, &error);
-  if (!page) return error;
-  const auto q = r.query();
-  std::string name;
-  if (const auto it = q.find("name"); it != q.end()) {
-    name = it->second;
-    if (name.size() > 200)
-      return problem(400, "invalid-parameter", "Invalid query parameter",
-                     "name must be at most 200 characters, got " + std::to_string(name.size()),
-                     {FieldError::query("name", "at most 200 characters")}, instance);
-  }
-  try {
-    auto store = pool_.acquire();
-    auto rows = store->list_studies(page->size + 1, page->after, name);
-    const json next = detail::take_id_page(rows, page->size);
-    json out = {{"studies", json::array()}};
-    for (const auto& rec : rows)
-      out["studies"].push_back(study_json(rec, store->count_runs(rec.id), false));
-    out["next_page_token"] = next;
-    return json_response(200, out);
-  } catch (const StoreError& e) {
-    return store_failure(e, instance);
-  }
-}
-
 std::optional<Response> Api::cached_study(const Request& r, const std::string& id) const {
   if (options_.study_cache_ttl.count() <= 0) return std::nullopt;
   const auto now = std::chrono::steady_clock::now();
@@ -444,27 +345,20 @@ std::optional<Response> Api::handle_cached(const Request& request) const {
 }
 
 Response Api::get_study(const Request& r, const std::string& id) const {
-  if (!is_valid_id(id)) return unknown_study(id, r.path());
   if (auto hit = cached_study(r, id)) return std::move(*hit);
   // Taken before the store is read, so a cached entry is never older than the TTL says.
   const auto now = std::chrono::steady_clock::now();
-  try {
-    auto store = pool_.acquire();
-    const auto rec = store->get_study(id);
-    if (!rec) return unknown_study(id, r.path());
-    Response resp = json_response(200, study_json(*rec, store->count_runs(id), true));
-    resp.set_header("ETag", strong_etag(resp.body));
-    // May be stored, but must be revalidated (If-None-Match) before each use.
-    resp.set_header("Cache-Control", "no-cache");
-    if (options_.study_cache_ttl.count() > 0) {
-      std::lock_guard lock(cache_mu_);
-      if (study_cache_.size() >= 1024) study_cache_.clear();  // bounded; entries are cheap
-      study_cache_[id] = {now, resp};
-    }
-    return conditional_response(r, resp);
-  } catch (const StoreError& e) {
-    return store_failure(e, r.path());
+  Response resp = get_job(r, studies_, id);
+  if (resp.status != 200) return resp;
+  resp.set_header("ETag", strong_etag(resp.body));
+  // May be stored, but must be revalidated (If-None-Match) before each use.
+  resp.set_header("Cache-Control", "no-cache");
+  if (options_.study_cache_ttl.count() > 0) {
+    std::lock_guard lock(cache_mu_);
+    if (study_cache_.size() >= 1024) study_cache_.clear();  // bounded; entries are cheap
+    study_cache_[id] = {now, resp};
   }
+  return conditional_response(r, resp);
 }
 
 void Api::forget_cached(const std::string& id) const {
@@ -472,35 +366,21 @@ void Api::forget_cached(const std::string& id) const {
   study_cache_.erase(id);
 }
 
-Response Api::cancel_study(const Request& r, const std::string& id) const {
-  if (auto denied = check_token(r)) return *denied;
-  if (!is_valid_id(id)) return unknown_study(id, r.path());
-  try {
-    auto store = pool_.acquire();
-    const CancelOutcome outcome =
-        scheduler_ != nullptr ? scheduler_->cancel(*store, id) : cancel_unclaimed(*store, id);
-    forget_cached(id);  // the canceller's next GET shows the new state
-    if (outcome == CancelOutcome::kNotFound) return unknown_study(id, r.path());
-    const auto rec = store->get_study(id);
-    if (!rec) return unknown_study(id, r.path());
-    if (outcome == CancelOutcome::kAlreadyFinished &&
-        rec->state != store::StudyState::kCancelled) {
-      return problem(409, "study-finished", "Study already finished",
-                     "study " + id + " is " + store::to_string(rec->state) +
-                         " and can no longer be cancelled",
-                     {}, r.path());
-    }
-    // 202: the worker stops starting runs and marks it cancelled once its batch is committed.
-    return study_response(outcome == CancelOutcome::kRequested ? 202 : 200, *store, *rec);
-  } catch (const StoreError& e) {
-    return store_failure(e, r.path());
-  }
-}
-
 Response Api::healthz(const Request& r) const {
+  if (health_) {
+    if (const auto problem_text = health_->problem()) {
+      // A worker is paused by a store fault: the server still answers reads, but runs nothing.
+      Response p = problem(503, "degraded", "Degraded", *problem_text, {}, r.path());
+      auto body = json::parse(p.body);
+      body["health"] = "degraded";
+      p.body = body.dump();
+      p.set_header("Retry-After", "1");
+      return p;
+    }
+  }
   try {
     auto store = pool_.acquire();
-    store->list_studies(1);
+    store->list_jobs("study", 1);
     return json_response(200, {{"status", "ok"}});
   } catch (const StoreError& e) {
     return problem(503, "unhealthy", "Unhealthy", std::string("store: ") + e.what(), {}, r.path());

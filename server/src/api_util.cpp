@@ -56,6 +56,18 @@ Response not_acceptable(const Request& r, bool csv_allowed) {
                  r.path());
 }
 
+Response bad_page_token(const Request& r) {
+  return problem(400, "invalid-parameter", "Invalid query parameter",
+                 "page_token is not a token returned by this endpoint",
+                 {FieldError::query("page_token", "not a token from next_page_token")}, r.path());
+}
+
+std::vector<FieldError> body_errors(const std::vector<common::SpecError>& errors) {
+  std::vector<FieldError> out;
+  for (const auto& e : errors) out.push_back(FieldError::body(e.pointer, e.message));
+  return out;
+}
+
 std::optional<IdPage> id_page_params(const Request& r, std::size_t fallback_size,
                                      std::size_t max_size, Response* error) {
   const auto size = page_size_param(r, fallback_size, max_size, error);
@@ -64,10 +76,7 @@ std::optional<IdPage> id_page_params(const Request& r, std::size_t fallback_size
   const auto t = q.find("page_token");
   if (t == q.end()) return IdPage{*size, ""};
   if (!is_valid_id(t->second)) {
-    *error = problem(400, "invalid-parameter", "Invalid query parameter",
-                     "page_token is not a token returned by this endpoint",
-                     {FieldError::query("page_token", "not a token from next_page_token")},
-                     r.path());
+    *error = bad_page_token(r);
     return std::nullopt;
   }
   return IdPage{*size, t->second};
@@ -130,9 +139,14 @@ std::optional<Response> check_idempotency_key(const Request& r, const std::strin
                  instance);
 }
 
+Response unknown_job(const std::string& noun, const std::string& title, const std::string& id,
+                     const std::string& instance) {
+  return problem(404, noun + "-not-found", title + " not found",
+                 "no " + noun + " with id \"" + id + "\"", {}, instance);
+}
+
 Response unknown_study(const std::string& id, const std::string& instance) {
-  return problem(404, "study-not-found", "Study not found", "no study with id \"" + id + "\"",
-                 {}, instance);
+  return unknown_job("study", "Study", id, instance);
 }
 
 Response store_failure(const store::StoreError& e, const std::string& instance) {

@@ -7,6 +7,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "stickslip/common/json_schema.h"
 #include "stickslip/server/http.h"
 #include "stickslip/store/store.h"
 
@@ -50,6 +51,12 @@ nlohmann::json take_id_page(std::vector<Row>& rows, std::size_t page_size) {
   return rows.back().id;
 }
 
+/// The 400 for a page_token that is not one this endpoint returned.
+Response bad_page_token(const Request& r);
+
+/// One FieldError per error, each naming its pointer into the request body.
+std::vector<FieldError> body_errors(const std::vector<common::SpecError>& errors);
+
 /// Ids of studies and diagnoses: 1 to 128 of [A-Za-z0-9._-].
 bool is_valid_id(const std::string& id);
 /// Content-Type application/json (parameters such as charset ignored).
@@ -57,6 +64,9 @@ bool is_json_content_type(const std::string& value);
 /// 400 when the Idempotency-Key header is present but not 1 to 255 visible ASCII characters.
 std::optional<Response> check_idempotency_key(const Request& r, const std::string& instance);
 
+/// 404 "<noun>-not-found": no job of this kind with this id.
+Response unknown_job(const std::string& noun, const std::string& title, const std::string& id,
+                     const std::string& instance);
 Response unknown_study(const std::string& id, const std::string& instance);
 Response store_failure(const store::StoreError& e, const std::string& instance);
 

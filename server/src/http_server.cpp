@@ -8,6 +8,7 @@
 #include <boost/beast/core.hpp>
 #include <boost/beast/http.hpp>
 #include <boost/beast/version.hpp>
+#include <limits>
 #include <optional>
 #include <pthread.h>
 #include <thread>
@@ -153,14 +154,23 @@ class Session : public std::enable_shared_from_this<Session> {
   // Read phase: the whole request under read_timeout.
   void read_request() {
     parser_.emplace();
-    // Beast checks a Content-Length against the limit when the header completes, so the header
-    // is read under the largest limit and on_header applies the path's own.
+    // Beast would check a Content-Length against the parser's limit when the header completes,
+    // before the path is known: the header is read without a body limit, and on_header applies
+    // the limit of the request's path (so a 413 always quotes the limit of its own path).
+    parser_->body_limit(std::numeric_limits<std::uint64_t>::max());  // (boost::none: 413 in 1.74)
     body_limit_ = server_.options.max_body_bytes;
-    for (const auto& [path, limit] : server_.options.path_body_limits)
-      body_limit_ = std::max(body_limit_, limit);
-    parser_->body_limit(body_limit_);
     parser_->header_limit(static_cast<std::uint32_t>(server_.options.max_header_bytes));
-    stream_.expires_after(server_.options.read_timeout);
+    // The read deadline is a timer of the session, not the stream's: when it expires, the read
+    // is cancelled and the client gets a 408 before the connection closes.
+    stream_.expires_never();
+    timed_out_ = false;
+    read_deadline_.expires_after(server_.options.read_timeout);
+    read_deadline_.async_wait([self = shared_from_this()](beast::error_code ec) {
+      if (ec) return;  // cancelled: the request arrived in time
+      self->timed_out_ = true;
+      beast::error_code ignored;
+      self->stream_.socket().cancel(ignored);
+    });
     // The header first, then the body with the limit of the request's path (same deadline).
     http::async_read_header(stream_, buffer_, *parser_,
                             beast::bind_front_handler(&Session::on_header, shared_from_this()));
@@ -198,8 +208,15 @@ class Session : public std::enable_shared_from_this<Session> {
   }
 
   void on_read(beast::error_code ec, std::size_t) {
+    read_deadline_.cancel();
+    if (timed_out_) {
+      return send(problem(408, "request-timeout", "Request timeout",
+                          "the request was not received within " +
+                              std::to_string(server_.options.read_timeout.count()) +
+                              " ms (stickslipd --read-timeout)"),
+                  11, false);
+    }
     if (ec == http::error::end_of_stream || ec == asio::error::eof) return close();
-    // beast::error::timeout: tcp_stream has already closed the socket (no 408 can be sent).
     if (ec == http::error::body_limit) {
       return send(problem(413, "body-too-large", "Request body too large",
                           "the body exceeds the limit of " + std::to_string(body_limit_) +
@@ -244,9 +261,10 @@ class Session : public std::enable_shared_from_this<Session> {
   }
 
   void dispatch(Request request, unsigned version, bool keep_alive) {
-    if (server_.options.handler_threads == 0) {  // inline on this I/O thread (no hand-off)
+    // Inline on this I/O thread (no hand-off) only without a body: checking a body (a study's
+    // design, a diagnosis's CSV files) can take long and must never hold the I/O thread.
+    if (server_.options.handler_threads == 0 && request.body.empty())
       return send(server_.handler(request), version, keep_alive);
-    }
     if (server_.inline_handler) {
       if (auto resp = server_.inline_handler(request)) return send(*resp, version, keep_alive);
     }
@@ -272,6 +290,7 @@ class Session : public std::enable_shared_from_this<Session> {
   }
 
   void close() {
+    read_deadline_.cancel();
     beast::error_code ec;
     stream_.socket().shutdown(tcp::socket::shutdown_send, ec);
     stream_.socket().close(ec);
@@ -285,6 +304,9 @@ class Session : public std::enable_shared_from_this<Session> {
   http::response<http::string_body> response_;
   // Pacing of repeated GETs (header comment).
   asio::steady_timer pace_timer_{stream_.get_executor()};
+  // The deadline of reading one request (read_request), and whether it expired.
+  asio::steady_timer read_deadline_{stream_.get_executor()};
+  bool timed_out_ = false;
   std::string last_get_target_;
   std::chrono::steady_clock::time_point last_answer_{};
 };
@@ -342,7 +364,8 @@ void HttpServer::start() {
   impl_->handlers_work.emplace(impl_->handlers.get_executor());
   impl_->accept();
   for (int i = 0; i < impl_->options.io_threads; ++i) impl_->spawn(impl_->ioc, "http-io");
-  for (int i = 0; i < impl_->options.handler_threads; ++i)
+  // At least one handler thread: requests with a body never run on an I/O thread.
+  for (int i = 0; i < std::max(impl_->options.handler_threads, 1); ++i)
     impl_->spawn(impl_->handlers, "http-handler");
 }
 

@@ -7,6 +7,7 @@
 #include <cinttypes>
 #include <cstdio>
 #include <cstring>
+#include <vector>
 
 namespace stickslip::store::detail {
 
@@ -143,19 +144,94 @@ void configure(const Connection& conn, Store::Mode mode) {
   conn.exec("PRAGMA synchronous = NORMAL", "setting synchronous = NORMAL");
 }
 
+/// Rows of a PRAGMA that checks the file, stopped after budget (then *finished is false). A
+/// statement that fails because a page is damaged (SQLITE_CORRUPT, SQLITE_NOTADB) is a problem.
+std::vector<std::string> check_rows(const Connection& conn, const char* pragma,
+                                    std::chrono::milliseconds budget, bool* finished) {
+  using Clock = std::chrono::steady_clock;
+  Clock::time_point d = budget.count() > 0 ? Clock::now() + budget : Clock::time_point::max();
+  sqlite3_progress_handler(
+      conn.get(), 10000,
+      [](void* p) { return Clock::now() > *static_cast<Clock::time_point*>(p) ? 1 : 0; }, &d);
+  std::vector<std::string> rows;
+  *finished = true;
+  try {
+    const std::string sql = std::string("PRAGMA ") + pragma;
+    Statement st(conn, sql.c_str(), "checking the file (" + sql + ")");
+    while (st.step()) rows.push_back(st.text(0));
+  } catch (const SqliteError& e) {
+    const int primary = e.code() & 0xff;
+    if (primary == SQLITE_INTERRUPT) *finished = false;
+    else if (primary == SQLITE_CORRUPT || primary == SQLITE_NOTADB) rows.push_back(e.what());
+    else {
+      sqlite3_progress_handler(conn.get(), 0, nullptr, nullptr);
+      throw;
+    }
+  }
+  sqlite3_progress_handler(conn.get(), 0, nullptr, nullptr);
+  if (rows.size() == 1 && rows[0] == "ok") rows.clear();
+  return rows;
+}
+
+std::string first_lines(const std::vector<std::string>& rows, std::size_t n) {
+  std::string out;
+  for (std::size_t i = 0; i < rows.size() && i < n; ++i) out += (i ? "; " : "") + rows[i];
+  if (rows.size() > n) out += "; ...";
+  return out;
+}
+
+/// The start-up check of a writer (docs/store.md, Damage): PRAGMA quick_check within
+/// kQuickCheckBudget; a damaged file is refused before anything is written to it.
+void require_quick_check(const Connection& conn) {
+  bool finished = true;
+  const auto rows = check_rows(conn, "quick_check(20)", kQuickCheckBudget, &finished);
+  if (!rows.empty())
+    fail(conn.path(), "the file is damaged (PRAGMA quick_check: " + first_lines(rows, 5) +
+                          "); nothing was written to it. Run `stickslip store check " +
+                          conn.path().string() +
+                          "` for the full check and restore the file from a backup (or "
+                          "`sqlite3 DB .recover`)");
+}
+
 }  // namespace
+
+StoreCheck check_store_file(const fs::path& path) {
+  require_sqlite_header(path);
+  Connection conn(path, open_handle(path, Store::Mode::kReadOnly, Store::kDefaultBusyTimeout));
+  const DbIdentity id = read_identity(conn);
+  if (id.empty()) fail(path, "not a stickslip database: the database is empty");
+  if (!id.ours()) fail_foreign(path, id);
+  StoreCheck out;
+  bool finished = true;
+  out.problems = check_rows(conn, "integrity_check(100)", std::chrono::milliseconds(0), &finished);
+  try {
+    Statement fk(conn, "PRAGMA foreign_key_check", "checking foreign keys");
+    while (fk.step()) ++out.foreign_key_violations;
+  } catch (const SqliteError& e) {
+    out.problems.push_back(e.what());  // a damaged page on the way
+  }
+  return out;
+}
 
 Connection open_connection(const fs::path& path, Store::Mode mode,
                            std::chrono::milliseconds busy) {
   require_sqlite_header(path);
   Connection conn(path, open_handle(path, mode, busy));
   const DbIdentity id = read_identity(conn);
+  if (!id.empty() && !id.ours()) fail_foreign(path, id);
+  if (mode != Store::Mode::kReadOnly) {
+    // One writer per store: take (or join) this process's writer lock before anything is
+    // written, and check a file this process has not checked yet.
+    conn.hold(WriterLock::acquire(path));
+    if (!conn.lock()->checked()) {
+      if (!id.empty()) require_quick_check(conn);
+      conn.lock()->mark_checked();
+    }
+  }
   if (id.empty()) {
     if (mode == Store::Mode::kReadOnly)
       fail(path, "not a stickslip database: the database is empty (open it read-write first)");
     initialise(conn);
-  } else if (!id.ours()) {
-    fail_foreign(path, id);
   }
   require_schema_version(conn, mode);
   configure(conn, mode);

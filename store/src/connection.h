@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "stickslip/store/store.h"
+#include "stickslip/store/writer_lock.h"
 
 namespace stickslip::store::detail {
 
@@ -35,12 +36,9 @@ std::string where(const fs::path& path);
 /// violation of one run from a failure of the whole transaction.
 class SqliteError : public StoreError {
  public:
-  SqliteError(const std::string& message, int code) : StoreError(message), code_(code) {}
-  int code() const noexcept { return code_; }
-  bool is_constraint() const noexcept { return (code_ & 0xff) == SQLITE_CONSTRAINT; }
-
- private:
-  int code_;
+  SqliteError(const std::string& message, int code) : StoreError(message, code) {}
+  int code() const noexcept { return sqlite_code(); }
+  bool is_constraint() const noexcept { return (code() & 0xff) == SQLITE_CONSTRAINT; }
 };
 
 SqliteError sqlite_error(const fs::path& path, sqlite3* db, std::string_view doing, int rc);
@@ -79,9 +77,13 @@ class Connection {
     sqlite3_exec(db_.get(), sql, nullptr, nullptr, nullptr);
   }
   std::int64_t changes() const noexcept { return sqlite3_changes(db_.get()); }
+  /// Keeps the process's writer lock while this read-write connection is open.
+  void hold(WriterLock lock) { lock_.emplace(std::move(lock)); }
+  WriterLock* lock() noexcept { return lock_ ? &*lock_ : nullptr; }
 
  private:
   fs::path path_;
+  std::optional<WriterLock> lock_;  // declared before db_: released after the handle closes
   DbPtr db_;
 };
 
@@ -220,6 +222,13 @@ DbIdentity read_identity(const Connection& conn);
 /// is known to be ours or empty.
 Connection open_connection(const fs::path& path, Store::Mode mode,
                            std::chrono::milliseconds busy);
+
+/// A read-only connection reading an older schema version as it is: TEMP views give it the
+/// version-4 jobs table (schema.cpp).
+void add_jobs_view(const Connection& conn, int version);
+
+/// The full check of a file on a read-only connection (store.h, check_store).
+StoreCheck check_store_file(const fs::path& path);
 
 /// Creates the schema in an empty database (schema.cpp).
 void initialise(const Connection& conn);

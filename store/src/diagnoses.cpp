@@ -1,4 +1,6 @@
-// Diagnosis records of the store (store.h).
+// Diagnosis records of the store (store.h): a diagnosis is a job of kind "diagnosis" whose
+// request is {"manifest", "files", "options"} and whose result is diagnosis.json (jobs.cpp holds
+// the records; this file adapts them).
 #include <bit>
 #include <cstdint>
 #include <limits>
@@ -9,113 +11,84 @@
 
 namespace stickslip::store {
 
-using detail::Connection;
 using detail::fail;
-using detail::is_json_object;
 using detail::Statement;
-using detail::to_limit;
-using detail::Transaction;
 
 namespace {
 
-constexpr const char* kDiagnosisColumns =
-    "id, name, request_hash, state, created_at, started_at, finished_at, error, idempotency_key";
+constexpr const char* kKind = "diagnosis";
+constexpr JobColumns kWithResult{.request = false, .result = true};
 
-DiagnosisRecord read_diagnosis(const Statement& st, const std::filesystem::path& path) {
-  DiagnosisRecord r;
-  r.id = st.text(0);
-  r.name = st.text(1);
-  r.request_hash = st.text(2);
-  const auto state = parse_study_state(st.text(3));
-  if (!state) fail(path, "diagnosis " + r.id + " has an unknown state '" + st.text(3) + "'");
-  r.state = *state;
-  r.created_at = st.text(4);
-  r.started_at = st.opt_text(5);
-  r.finished_at = st.opt_text(6);
-  r.error = st.opt_text(7);
-  r.idempotency_key = st.opt_text(8);
-  return r;
-}
-
-std::optional<DiagnosisRecord> diagnosis_where(const Connection& conn, const char* where,
-                                               const std::string& value, bool with_result) {
-  const std::string sql = std::string("SELECT ") + kDiagnosisColumns +
-                          (with_result ? ", result_json" : "") + " FROM diagnoses " + where;
-  Statement st(conn, sql.c_str(), "reading a diagnosis");
-  st.bind_text(1, value);
-  if (!st.step()) return std::nullopt;
-  DiagnosisRecord r = read_diagnosis(st, conn.path());
-  if (with_result) r.result_json = st.opt_text(9);
-  return r;
+std::optional<DiagnosisRecord> as_diagnosis(std::optional<JobRecord> job) {
+  if (!job || job->kind != kKind) return std::nullopt;
+  return diagnosis_from_job(*job);
 }
 
 }  // namespace
 
+DiagnosisRecord diagnosis_from_job(const JobRecord& job) {
+  DiagnosisRecord r;
+  r.id = job.id;
+  r.name = job.name;
+  r.request_hash = job.request_hash;
+  r.state = job.state;
+  r.created_at = job.created_at;
+  r.started_at = job.started_at;
+  r.finished_at = job.finished_at;
+  r.error = job.error;
+  r.result_json = job.result_json;
+  r.idempotency_key = job.idempotency_key;
+  return r;
+}
+
 CreatedDiagnosis Store::create_diagnosis(const NewDiagnosis& d) {
-  const std::string id = d.id.empty() ? new_diagnosis_id() : d.id;
-  if (!is_json_object(d.request_json))
-    fail(path(), "creating diagnosis " + id + ": request_json is not a JSON object");
-  const auto& conn = impl_->conn;
-  Transaction tx(conn, Transaction::Kind::kWrite, "creating diagnosis " + id);
-  if (d.idempotency_key) {
-    if (auto existing = diagnosis_where(conn, "WHERE idempotency_key = ?1", *d.idempotency_key,
-                                        true)) {
-      tx.commit("idempotency lookup");
-      return {std::move(*existing), false};
-    }
-  }
-  if (diagnosis_where(conn, "WHERE id = ?1", id, false))
-    fail(path(), "creating diagnosis " + id + ": a diagnosis with this id already exists");
-  Statement st(conn,
-               "INSERT INTO diagnoses (id, name, request_json, request_hash, state, created_at, "
-               "idempotency_key) VALUES (?1, ?2, ?3, ?4, 'queued', ?5, ?6)",
-               "inserting diagnosis " + id);
-  st.bind_text(1, id).bind_text(2, d.name).bind_text(3, d.request_json);
-  st.bind_text(4, d.request_hash).bind_text(5, utc_now_iso8601());
-  st.bind_opt_text(6, d.idempotency_key).run();
-  auto stored = diagnosis_where(conn, "WHERE id = ?1", id, true);
-  tx.commit("diagnosis " + id);
-  return {std::move(stored.value()), true};
+  NewJob j;
+  j.id = d.id.empty() ? new_diagnosis_id() : d.id;
+  if (!detail::is_json_object(d.request_json))
+    fail(path(), "creating diagnosis " + j.id + ": request_json is not a JSON object");
+  j.kind = kKind;
+  j.name = d.name;
+  j.request_json = d.request_json;
+  j.request_hash = d.request_hash;
+  j.idempotency_key = d.idempotency_key;
+  if (d.idempotency_key) j.idempotency_hash = d.request_hash;
+  auto created = create_job(j);
+  if (created.job.kind != kKind)
+    fail(path(), "creating diagnosis " + j.id + ": a job of another kind has this id");
+  return {diagnosis_from_job(created.job), created.created};
 }
 
 std::optional<DiagnosisRecord> Store::get_diagnosis(const std::string& id) {
-  return diagnosis_where(impl_->conn, "WHERE id = ?1", id, true);
+  return as_diagnosis(get_job(id, kWithResult));
 }
 
 std::optional<std::string> Store::get_diagnosis_request(const std::string& id) {
-  Statement st(impl_->conn, "SELECT request_json FROM diagnoses WHERE id = ?1",
-               "reading the request of diagnosis " + id);
-  st.bind_text(1, id);
-  if (!st.step()) return std::nullopt;
-  return st.text(0);
+  auto job = get_job(id, {.request = true, .result = false});
+  if (!job || job->kind != kKind) return std::nullopt;
+  return job->request_json;
 }
 
 std::optional<DiagnosisRecord> Store::find_diagnosis_by_idempotency_key(const std::string& key) {
-  return diagnosis_where(impl_->conn, "WHERE idempotency_key = ?1", key, true);
+  return as_diagnosis(find_job_by_idempotency_key(kKind, key, kWithResult));
 }
 
 std::vector<DiagnosisRecord> Store::list_diagnoses(std::size_t page_size,
                                                    const std::string& after_id) {
-  const std::string sql = std::string("SELECT ") + kDiagnosisColumns +
-                          " FROM diagnoses WHERE id > ?1 ORDER BY id LIMIT ?2";
-  Statement st(impl_->conn, sql.c_str(), "listing diagnoses");
-  st.bind_text(1, after_id).bind_int(2, to_limit(page_size));
   std::vector<DiagnosisRecord> out;
-  while (st.step()) out.push_back(read_diagnosis(st, path()));
+  for (const auto& job : list_jobs(kKind, page_size, after_id))
+    out.push_back(diagnosis_from_job(job));
   return out;
 }
 
 void Store::set_diagnosis_state(const std::string& id, StudyState state,
                                 const std::optional<std::string>& error) {
-  detail::set_job_state(impl_->conn, "diagnoses", "diagnosis", id, state, error);
+  detail::set_job_state(impl_->conn, id, kKind, state, error);
 }
 
 bool Store::requeue_diagnosis(const std::string& id) {
-  Statement st(impl_->conn,
-               "UPDATE diagnoses SET state = 'queued' WHERE id = ?1 AND state = 'running'",
-               "re-queueing diagnosis " + id);
-  st.bind_text(1, id).run();
-  return impl_->conn.changes() > 0;
+  const auto job = get_job(id);
+  if (!job || job->kind != kKind || job->state != StudyState::kRunning) return false;
+  return requeue_job(id, job->error);
 }
 
 namespace {
@@ -148,8 +121,6 @@ bool Store::finish_diagnosis(const std::string& id, StudyState state,
                              const std::vector<DiagnosisTrace>& traces) {
   if (state != StudyState::kSucceeded && state != StudyState::kFailed)
     fail(path(), "finishing diagnosis " + id + ": the state must be succeeded or failed");
-  if (result_json && !is_json_object(*result_json))
-    fail(path(), "finishing diagnosis " + id + ": result_json is not a JSON object");
   for (std::size_t k = 0; k < traces.size(); ++k) {
     const auto& tr = traces[k];
     const std::size_t n = tr.t.size();
@@ -162,21 +133,17 @@ bool Store::finish_diagnosis(const std::string& id, StudyState state,
                        std::to_string(tr.extended.size()) + ")");
   }
   const std::string doing = "finishing diagnosis " + id;
-  Transaction tx(impl_->conn, Transaction::Kind::kWrite, doing);
-  Statement st(impl_->conn,
-               "UPDATE diagnoses SET state = ?1, result_json = ?2, error = ?3, finished_at = ?4 "
-               "WHERE id = ?5 AND state IN ('queued', 'running')",
-               doing);
-  st.bind_text(1, to_string(state)).bind_opt_text(2, result_json).bind_opt_text(3, error);
-  st.bind_text(4, utc_now_iso8601()).bind_text(5, id).run();
-  const bool finished = impl_->conn.changes() > 0;
+  // The outcome (jobs.cpp) and the traces in one transaction.
+  detail::Transaction tx(impl_->conn, detail::Transaction::Kind::kWrite, doing);
+  const bool finished = finish_job(id, state, result_json, error);
   if (finished && !traces.empty()) {
-    Statement del(impl_->conn, "DELETE FROM diagnosis_traces WHERE diagnosis_id = ?1", doing);
+    detail::Statement del(impl_->conn, "DELETE FROM diagnosis_traces WHERE diagnosis_id = ?1",
+                          doing);
     del.bind_text(1, id).run();
-    Statement ins(impl_->conn,
-                  "INSERT INTO diagnosis_traces (diagnosis_id, run_index, run, n_samples, t, "
-                  "measured, base, extended) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8)",
-                  doing);
+    detail::Statement ins(impl_->conn,
+                          "INSERT INTO diagnosis_traces (diagnosis_id, run_index, run, n_samples, "
+                          "t, measured, base, extended) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8)",
+                          doing);
     for (std::size_t k = 0; k < traces.size(); ++k) {
       const auto& tr = traces[k];
       ins.bind_text(1, id).bind_int(2, static_cast<std::int64_t>(k)).bind_text(3, tr.run);
@@ -236,6 +203,5 @@ std::optional<DiagnosisTrace> Store::get_diagnosis_trace(const std::string& id,
     fail(path(), "corrupt " + doing + ": column length mismatch");
   return tr;
 }
-
 
 }  // namespace stickslip::store

@@ -5,9 +5,11 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <initializer_list>
 #include <limits>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "connection.h"
@@ -17,10 +19,11 @@ namespace stickslip::store {
 struct Store::Impl {
   detail::Connection conn;
 
+  /// The first job matching where (a WHERE ... clause binding values to ?1, ?2, ...; jobs.cpp).
+  std::optional<JobRecord> job_where(JobColumns cols, std::string_view where,
+                                     std::initializer_list<std::string_view> values);
+
   /// The first study matching where (a WHERE ... clause with ?1 and optionally ?2; studies.cpp).
-  std::optional<StudyRecord> study_where(const char* where, const std::string& value,
-                                         const std::string* value2 = nullptr);
-  void insert_study(const NewStudy& s, const std::string& id);
   /// Stage metrics of runs lo..hi (inclusive), merged into runs (sorted by design_index).
   void attach_stages(const std::string& study_id, std::vector<RunRecord>& runs);  // runs.cpp
 };
@@ -42,11 +45,12 @@ inline std::int64_t to_limit(std::size_t n) {
 }
 
 bool is_json_object(const std::string& text);
+bool is_json(const std::string& text);
 
-/// One state-transition rule for both kinds of job (store.cpp).
-void set_job_state(const Connection& conn, const char* table, const char* kind,
-                   const std::string& id, StudyState state,
-                   const std::optional<std::string>& error);
+/// The state rule of every job (jobs.cpp): started_at set on the first 'running', finished_at
+/// on a terminal state and cleared otherwise. kind (when not null) must match the job's.
+void set_job_state(const Connection& conn, const std::string& id, const char* kind,
+                   StudyState state, const std::optional<std::string>& error);
 
 }  // namespace detail
 }  // namespace stickslip::store

@@ -92,10 +92,27 @@ struct RunWriter::Impl {
   Statement insert_run, stored_hash, insert_stage, insert_trace;
   std::vector<RunRecord> buffer;
   Clock::time_point last_commit = Clock::now();
+  // After a commit failed on a busy store: no automatic commit before retry_at.
+  std::chrono::milliseconds busy_wait{0};
+  Clock::time_point retry_at{};
 
   bool due() const {
     if (buffer.empty()) return false;
-    return buffer.size() >= options.max_batch || Clock::now() - last_commit >= options.max_delay;
+    const auto now = Clock::now();
+    if (now < retry_at) return false;
+    return busy_wait.count() > 0 || buffer.size() >= options.max_batch ||
+           now - last_commit >= options.max_delay;
+  }
+
+  /// flush(), but a busy store only postpones the commit (the runs stay buffered).
+  bool flush_unless_busy() {
+    try {
+      flush();
+      return true;
+    } catch (const StoreError& e) {
+      if (e.fault() != StoreFault::kBusy) throw;
+      return false;
+    }
   }
 
   void write_stages(const RunRecord& r) {
@@ -165,11 +182,19 @@ struct RunWriter::Impl {
     const std::string doing = "a batch of " + std::to_string(buffer.size()) + " runs";
     FlushResult result;
     std::vector<std::string> rejected;
-    {
+    try {
       Transaction tx(conn, Transaction::Kind::kWrite, doing);
       for (const auto& r : buffer) write_run_atomically(r, result, rejected);
       tx.commit(doing);
+    } catch (const StoreError& e) {
+      if (e.fault() == StoreFault::kBusy) {  // another connection holds the write lock
+        busy_wait = std::clamp(busy_wait * 2, std::chrono::milliseconds(50),
+                               std::chrono::milliseconds(2000));
+        retry_at = Clock::now() + busy_wait;
+      }
+      throw;
     }
+    busy_wait = std::chrono::milliseconds(0);
     buffer.clear();
     last_commit = Clock::now();
     if (!rejected.empty()) throw_rejected(rejected, result);
@@ -222,8 +247,7 @@ void RunWriter::add(RunRecord run) {
 
 bool RunWriter::flush_if_due() {
   if (!impl_->due()) return false;
-  impl_->flush();
-  return true;
+  return impl_->flush_unless_busy();
 }
 
 FlushResult RunWriter::flush() { return impl_->flush(); }

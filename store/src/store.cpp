@@ -6,6 +6,7 @@
 #include <cinttypes>
 #include <cstdio>
 #include <ctime>
+#include <mutex>
 #include <random>
 
 #include <nlohmann/json.hpp>
@@ -25,22 +26,57 @@ std::string param_hash(std::string_view canonical_json) {
   return buf;
 }
 
-namespace {
-std::string new_id(const char* prefix) {
-  const auto ms = std::chrono::duration_cast<std::chrono::milliseconds>(
-                      std::chrono::system_clock::now().time_since_epoch())
-                      .count();
-  std::random_device rd;
-  const std::uint32_t rnd = rd();
-  char buf[32];
-  const std::uint64_t ms48 = static_cast<std::uint64_t>(ms) & 0xffffffffffffULL;
-  std::snprintf(buf, sizeof buf, "%s-%012" PRIx64 "%08" PRIx32, prefix, ms48, rnd);
+StoreFault StoreError::fault() const noexcept {
+  switch (code_ & 0xff) {
+    case SQLITE_BUSY:
+    case SQLITE_LOCKED: return StoreFault::kBusy;
+    case SQLITE_IOERR:
+    case SQLITE_CORRUPT:
+    case SQLITE_FULL:
+    case SQLITE_CANTOPEN:
+    case SQLITE_NOTADB:
+    case SQLITE_READONLY:
+    case SQLITE_PROTOCOL:
+    case SQLITE_NOMEM: return StoreFault::kPersistent;
+    default: return StoreFault::kNone;
+  }
+}
+
+std::string new_job_id(const std::string& prefix) {
+  // The last id made by this process, as (ms, low): a new id sorts after it even when the clock
+  // has not moved on (or went back). A process-wide state on purpose: ids must be ordered
+  // across every Store of the process. The random low digits keep ids of separate processes
+  // apart.
+  static std::mutex mu;
+  static std::uint64_t last_ms = 0;
+  static std::uint32_t last_low = 0;
+  std::uint64_t ms = static_cast<std::uint64_t>(
+                         std::chrono::duration_cast<std::chrono::milliseconds>(
+                             std::chrono::system_clock::now().time_since_epoch())
+                             .count()) &
+                     0xffffffffffffULL;
+  std::uint32_t low = std::random_device{}();
+  {
+    std::lock_guard lock(mu);
+    if (ms < last_ms || (ms == last_ms && low <= last_low)) {
+      ms = last_ms;
+      low = last_low + 1;
+      if (low == 0) ++ms;  // wrapped: the next millisecond's first id
+    }
+    last_ms = ms;
+    last_low = low;
+  }
+  char buf[48];
+  std::snprintf(buf, sizeof buf, "%s-%012" PRIx64 "%08" PRIx32, prefix.c_str(), ms, low);
   return buf;
 }
-}  // namespace
 
-std::string new_study_id() { return new_id("st"); }
-std::string new_diagnosis_id() { return new_id("dg"); }
+std::string new_study_id() { return new_job_id("st"); }
+std::string new_diagnosis_id() { return new_job_id("dg"); }
+
+StoreCheck check_store(const std::filesystem::path& path) {
+  return detail::check_store_file(path);
+}
 
 std::string utc_now_iso8601() {
   const auto now = std::chrono::system_clock::now();
@@ -96,25 +132,8 @@ bool is_json_object(const std::string& text) {
   return j.is_object();
 }
 
-// One state-transition rule for both kinds of job (studies, diagnoses): started_at is set on
-// the first 'running', finished_at on a terminal state and cleared otherwise. table is one of
-// the two fixed table names; kind names the job in errors.
-void set_job_state(const Connection& conn, const char* table, const char* kind,
-                   const std::string& id, StudyState state,
-                   const std::optional<std::string>& error) {
-  const std::string sql =
-      std::string("UPDATE ") + table +
-      " SET state = ?1, error = ?2, "
-      "started_at = CASE WHEN ?1 = 'running' THEN COALESCE(started_at, ?3) "
-      "                  ELSE started_at END, "
-      "finished_at = CASE WHEN ?1 IN ('succeeded', 'failed', 'cancelled') THEN ?3 "
-      "                   ELSE NULL END "
-      "WHERE id = ?4";
-  const std::string doing = std::string("setting the state of ") + kind + " " + id;
-  Statement st(conn, sql.c_str(), doing);
-  st.bind_text(1, to_string(state)).bind_opt_text(2, error).bind_text(3, utc_now_iso8601());
-  st.bind_text(4, id).run();
-  if (conn.changes() == 0) fail(conn.path(), doing + ": no such " + kind);
+bool is_json(const std::string& text) {
+  return !nlohmann::json::parse(text, nullptr, /*allow_exceptions=*/false).is_discarded();
 }
 
 }  // namespace detail

@@ -259,218 +259,327 @@ store::StudyRecord create_or_find_study(store::Store& store, const StudySpec& sp
   return store.create_study(s).study;
 }
 
-RunSummary run_study(const std::filesystem::path& db, const std::string& study_id,
-                     const StudySpec& spec, const RunnerOptions& opt) {
-  const auto t_start = Clock::now();
-  RunSummary sum;
-  sum.total = static_cast<std::int64_t>(spec.run_count());
-  const auto fail = [&](const std::string& why) {
-    sum.outcome = RunOutcome::kFailed;
-    sum.error = why;
-    try {
-      // Never create a database just to record a failure (e.g. a mistyped path).
-      std::error_code ec;
-      if (std::filesystem::is_regular_file(db, ec))
-        store::Store::open(db).set_study_state(study_id, store::StudyState::kFailed, why);
-    } catch (const std::exception&) {  // the store itself is the problem; nothing more to do
-    }
-    sum.wall_s = seconds_since(t_start);
-    return sum;
-  };
+namespace {
 
-  std::vector<std::size_t> pending;
-  Progress progress;
-  progress.total = sum.total;
-  std::optional<measured::MeasuredDataset> measured;
-  {
-    // The study must already be in the database: a missing file is an error, not a new store.
-    std::error_code ec;
-    if (!std::filesystem::is_regular_file(db, ec))
-      return fail("no database at " + db.string() + " (create the study first)");
+/// Runs op, and again while it fails because another connection holds the store's write lock
+/// past the busy timeout (StoreFault::kBusy): waits 50 ms, doubling to 2 s. Gives up (rethrows)
+/// only once *stop is set and patience has passed since the first failure, so a shutdown never
+/// hangs on somebody else's lock, while a busy store never fails a study.
+template <class Op>
+auto retry_while_busy(Op&& op, const std::atomic<bool>* stop,
+                      std::chrono::milliseconds patience = std::chrono::seconds(10)) {
+  std::chrono::milliseconds wait{50};
+  std::optional<Clock::time_point> first;
+  while (true) {
+    try {
+      return op();
+    } catch (const store::StoreError& e) {
+      if (e.fault() != store::StoreFault::kBusy) throw;
+      if (!first) first = Clock::now();
+      if (stop != nullptr && stop->load() && Clock::now() - *first > patience) throw;
+      std::this_thread::sleep_for(wait);
+      wait = std::min(wait * 2, std::chrono::milliseconds(2000));
+    }
   }
-  try {
-    store::Store store = store::Store::open(db);
-    const auto study = store.get_study(study_id);
-    if (!study) return fail("unknown study '" + study_id + "' in " + db.string());
-    if (study->total_runs != sum.total)
-      return fail("study " + study_id + " has " + std::to_string(study->total_runs) +
-                  " runs stored but its spec gives " + std::to_string(sum.total));
-    if (spec.measured()) {
-      std::filesystem::path path = *spec.measured();
-      if (path.is_relative()) path = opt.spec_dir / path;
+}
+
+/// One call of run_study: workers compute the missing runs (compute(), its own thread with an
+/// OpenMP team), the calling thread stores them (store_results()) and sets the study's state.
+class StudyRun {
+ public:
+  StudyRun(const std::filesystem::path& db, const std::string& study_id, const StudySpec& spec,
+           const RunnerOptions& opt)
+      : db_(db), id_(study_id), spec_(spec), opt_(opt) {
+    sum_.total = static_cast<std::int64_t>(spec.run_count());
+    progress_.total = sum_.total;
+  }
+
+  RunSummary run() {
+    if (!prepare()) return sum_;
+    try {
+      writer_.emplace(retry_while_busy([&] { return store::RunWriter::open(db_, opt_.writer); },
+                                       opt_.stop));
+    } catch (const std::exception& e) {
+      return fail(e);
+    }
+    std::thread compute([this] { compute_all(); });
+    store_results();
+    compute.join();
+    writer_.reset();  // flushes nothing more: the buffer is empty or the store failed
+    sum_.computed = committed_computed_;
+    sum_.failed = committed_failed_;
+    sum_.batched = batched_runs_.load();
+    sum_.store_s = store_s_;
+    if (store_error_) return fail("store: " + *store_error_, store_fault_);
+    return finish();
+  }
+
+ private:
+  /// Failure: the study is marked failed with why, unless the store itself failed (busy, I/O,
+  /// disk full, corrupt): then it stays resumable and fault says why.
+  RunSummary fail(const std::string& why, store::StoreFault fault = store::StoreFault::kNone) {
+    sum_.outcome = RunOutcome::kFailed;
+    sum_.error = why;
+    sum_.store_fault = fault;
+    std::error_code ec;
+    // Never create a database just to record a failure (e.g. a mistyped path).
+    if (fault == store::StoreFault::kNone && std::filesystem::is_regular_file(db_, ec)) {
       try {
-        measured = measured::load_measured(path);
-      } catch (const measured::MeasuredError& e) {
-        return fail(std::string("measured data: ") + e.what());
+        retry_while_busy([&] {
+          store::Store::open(db_).set_study_state(id_, store::StudyState::kFailed, why);
+        }, opt_.stop);
+      } catch (const std::exception&) {  // the store itself is the problem; nothing more to do
       }
     }
-    const auto done = store.completed_design_indices(study_id);
-    std::vector<bool> have(spec.run_count(), false);
+    sum_.wall_s = seconds_since(t_start_);
+    return sum_;
+  }
+  RunSummary fail(const std::exception& e, const std::string& prefix = {}) {
+    const auto* se = dynamic_cast<const store::StoreError*>(&e);
+    return fail(prefix + e.what(), se != nullptr ? se->fault() : store::StoreFault::kNone);
+  }
+
+  /// Checks the study, loads measured data, lists the missing runs, marks it running.
+  bool prepare() {
+    std::error_code ec;
+    // The study must already be in the database: a missing file is an error, not a new store.
+    if (!std::filesystem::is_regular_file(db_, ec)) {
+      fail("no database at " + db_.string() + " (create the study first)");
+      return false;
+    }
+    try {
+      retry_while_busy([&] { prepare_in(store::Store::open(db_)); }, opt_.stop);
+    } catch (const Failure& f) {
+      fail(f.why);
+      return false;
+    } catch (const std::exception& e) {
+      fail(e);
+      return false;
+    }
+    return true;
+  }
+
+  struct Failure {
+    std::string why;
+  };
+
+  void prepare_in(store::Store store) {
+    const auto study = store.get_study(id_);
+    if (!study) throw Failure{"unknown study '" + id_ + "' in " + db_.string()};
+    if (study->total_runs != sum_.total)
+      throw Failure{"study " + id_ + " has " + std::to_string(study->total_runs) +
+                    " runs stored but its spec gives " + std::to_string(sum_.total)};
+    if (spec_.measured()) {
+      std::filesystem::path path = *spec_.measured();
+      if (path.is_relative()) path = opt_.spec_dir / path;
+      try {
+        measured_ = measured::load_measured(path);
+      } catch (const measured::MeasuredError& e) {
+        throw Failure{std::string("measured data: ") + e.what()};
+      }
+    }
+    const auto done = store.completed_design_indices(id_);
+    std::vector<bool> have(spec_.run_count(), false);
     for (auto i : done)
       if (i >= 0 && static_cast<std::size_t>(i) < have.size()) have[i] = true;
+    pending_.clear();
     for (std::size_t i = 0; i < have.size(); ++i)
-      if (!have[i]) pending.push_back(i);
-    const store::RunCounts counts = store.count_runs(study_id);
-    progress.done = counts.done;
-    progress.failed = counts.failed;
-    sum.skipped = counts.done;
-    store.set_study_state(study_id, store::StudyState::kRunning);
-  } catch (const std::exception& e) {
-    return fail(e.what());
+      if (!have[i]) pending_.push_back(i);
+    const store::RunCounts counts = store.count_runs(id_);
+    progress_.done = counts.done;
+    progress_.failed = counts.failed;
+    sum_.skipped = counts.done;
+    store.set_study_state(id_, store::StudyState::kRunning);
   }
 
-  std::optional<store::RunWriter> writer;
-  try {
-    writer.emplace(store::RunWriter::open(db, opt.writer));
-  } catch (const std::exception& e) {
-    return fail(e.what());
+  bool stop_requested() const {
+    return abort_.load(std::memory_order_relaxed) ||
+           (opt_.cancel != nullptr && opt_.cancel->load(std::memory_order_relaxed)) ||
+           (opt_.stop != nullptr && opt_.stop->load(std::memory_order_relaxed));
   }
 
-  // Workers -> queue -> this thread (the single writer).
-  std::mutex mu;
-  std::condition_variable cv;
-  std::deque<store::RunRecord> queue;
-  bool workers_done = false;
-  std::atomic<bool> abort{false};  // set by this thread when the store fails
-  const auto stop_requested = [&] {
-    return abort.load(std::memory_order_relaxed) ||
-           (opt.cancel != nullptr && opt.cancel->load(std::memory_order_relaxed)) ||
-           (opt.stop != nullptr && opt.stop->load(std::memory_order_relaxed));
-  };
-  const measured::MeasuredDataset* mdata = measured ? &*measured : nullptr;
+  /// One job (one run, or a batch the engine computes at once); never throws.
+  std::vector<store::RunRecord> compute_job(const std::vector<std::size_t>& job,
+                                            const measured::MeasuredDataset* mdata) {
+    std::vector<store::RunRecord> recs;
+    // No exception may leave the OpenMP region: compute_run never throws, and a batch that
+    // throws (it cannot for configurations make_jobs accepted) falls back to one run at a time.
+    try {
+      if (job.size() > 1) {
+        recs = compute_batch(spec_, job, id_);
+        batched_runs_ += static_cast<std::int64_t>(recs.size());
+      }
+    } catch (...) {
+      recs.clear();
+    }
+    if (recs.empty())
+      for (std::size_t i : job) {
+        try {
+          recs.push_back(compute_run(spec_, i, id_, mdata));
+        } catch (...) {
+          store::RunRecord rec;
+          rec.study_id = id_;
+          rec.design_index = static_cast<std::int64_t>(i);
+          rec.params_json = "{}";
+          rec.param_hash = store::param_hash(rec.params_json);
+          rec.status = "invalid";
+          rec.error = "internal error while computing the run";
+          recs.push_back(std::move(rec));
+        }
+      }
+    return recs;
+  }
 
-  std::atomic<std::int64_t> batched_runs{0};
-  const std::vector<std::vector<std::size_t>> jobs =
-      make_jobs(spec, pending, batchable(spec, mdata));
-  std::thread compute([&] {
+  /// The workers: every pending job, pushed into the queue as it finishes.
+  void compute_all() {
+    const measured::MeasuredDataset* mdata = measured_ ? &*measured_ : nullptr;
+    const auto jobs = make_jobs(spec_, pending_, batchable(spec_, mdata));
     const long n = static_cast<long>(jobs.size());
-    const int threads = opt.threads > 0 ? opt.threads : omp_get_max_threads();
+    const int threads = opt_.threads > 0 ? opt_.threads : omp_get_max_threads();
 #pragma omp parallel for schedule(dynamic, 1) num_threads(threads)
     for (long k = 0; k < n; ++k) {
       if (stop_requested()) continue;
-      const std::vector<std::size_t>& job = jobs[k];
-      std::vector<store::RunRecord> recs;
-      // No exception may leave the region: compute_run never throws, and a batch that throws
-      // (it cannot for configurations make_jobs accepted) falls back to one run at a time.
-      try {
-        if (job.size() > 1) {
-          recs = compute_batch(spec, job, study_id);
-          batched_runs += static_cast<std::int64_t>(recs.size());
-        }
-      } catch (...) {
-        recs.clear();
-      }
-      if (recs.empty())
-        for (std::size_t i : job) {
-          try {
-            recs.push_back(compute_run(spec, i, study_id, mdata));
-          } catch (...) {
-            store::RunRecord rec;
-            rec.study_id = study_id;
-            rec.design_index = static_cast<std::int64_t>(i);
-            rec.params_json = "{}";
-            rec.param_hash = store::param_hash(rec.params_json);
-            rec.status = "invalid";
-            rec.error = "internal error while computing the run";
-            recs.push_back(std::move(rec));
-          }
-        }
+      std::vector<store::RunRecord> recs = compute_job(jobs[static_cast<std::size_t>(k)], mdata);
       {
-        std::lock_guard lock(mu);
-        for (store::RunRecord& rec : recs) queue.push_back(std::move(rec));
+        std::lock_guard lock(mu_);
+        for (store::RunRecord& rec : recs) queue_.push_back(std::move(rec));
       }
-      cv.notify_one();
+      cv_.notify_one();
     }
     {
-      std::lock_guard lock(mu);
-      workers_done = true;
+      std::lock_guard lock(mu_);
+      workers_done_ = true;
     }
-    cv.notify_one();
-  });
+    cv_.notify_one();
+  }
 
-  std::string store_error;
-  double store_s = 0.0;
-  const auto report = [&] {
-    if (opt.on_progress) opt.on_progress(progress);
-  };
-  report();
-  std::int64_t committed_computed = 0, committed_failed = 0;
-  std::int64_t buffered_computed = 0, buffered_failed = 0;
-  const auto on_commit = [&] {
-    committed_computed += buffered_computed;
-    committed_failed += buffered_failed;
-    progress.done += buffered_computed;
-    progress.failed += buffered_failed;
-    buffered_computed = buffered_failed = 0;
+  void report() {
+    if (opt_.on_progress) opt_.on_progress(progress_);
+  }
+
+  void on_commit() {
+    committed_computed_ += buffered_computed_;
+    committed_failed_ += buffered_failed_;
+    progress_.done += buffered_computed_;
+    progress_.failed += buffered_failed_;
+    buffered_computed_ = buffered_failed_ = 0;
     report();
-  };
-  const auto wait_slice = std::max(std::chrono::milliseconds(10), opt.writer.max_delay / 2);
-  while (true) {
-    std::deque<store::RunRecord> batch;
-    bool finished;
-    {
-      std::unique_lock lock(mu);
-      cv.wait_for(lock, wait_slice, [&] { return !queue.empty() || workers_done; });
-      batch.swap(queue);
-      finished = workers_done;
+  }
+
+  /// Hands a batch of finished runs to the writer. A busy store only defers the commit (the
+  /// writer keeps the runs and tries again later); any other store failure stops the study.
+  void add_all(std::deque<store::RunRecord>& batch) {
+    for (store::RunRecord& rec : batch) {
+      sum_.compute_s += rec.wall_time_s;
+      const std::size_t before = writer_->buffered();
+      ++buffered_computed_;
+      buffered_failed_ += rec.status != "ok" ? 1 : 0;
+      writer_->add(std::move(rec));
+      if (writer_->buffered() <= before) on_commit();  // add() committed the batch
     }
-    if (store_error.empty()) {
-      const auto ts = Clock::now();
-      try {
-        for (store::RunRecord& rec : batch) {
-          const bool failed = rec.status != "ok";
-          sum.compute_s += rec.wall_time_s;
-          const std::size_t before = writer->buffered();
-          ++buffered_computed;
-          buffered_failed += failed ? 1 : 0;
-          writer->add(std::move(rec));
-          if (writer->buffered() <= before) on_commit();  // add() committed the batch
-        }
-        if (writer->flush_if_due()) on_commit();
-        if (finished) {
-          writer->flush();
-          on_commit();
-        }
-      } catch (const std::exception& e) {
-        store_error = e.what();
-        abort = true;
+    if (writer_->flush_if_due()) on_commit();
+  }
+
+  /// The last commit: retried while the store is busy (see retry_while_busy).
+  void flush_all() {
+    retry_while_busy([&] { writer_->flush(); }, opt_.stop);
+    on_commit();
+  }
+
+  /// This thread: drains the workers' queue into the writer until the workers are done.
+  void store_results() {
+    report();
+    const auto wait_slice = std::max(std::chrono::milliseconds(10), opt_.writer.max_delay / 2);
+    while (true) {
+      std::deque<store::RunRecord> batch;
+      bool finished;
+      {
+        std::unique_lock lock(mu_);
+        cv_.wait_for(lock, wait_slice, [&] { return !queue_.empty() || workers_done_; });
+        batch.swap(queue_);
+        finished = workers_done_;
       }
-      store_s += seconds_since(ts);
+      if (!store_error_) {
+        const auto ts = Clock::now();
+        try {
+          add_all(batch);
+          if (finished) flush_all();
+        } catch (const store::StoreError& e) {
+          store_error_ = e.what();
+          store_fault_ = e.fault();
+          abort_ = true;
+        } catch (const std::exception& e) {
+          store_error_ = e.what();
+          abort_ = true;
+        }
+        store_s_ += seconds_since(ts);
+      }
+      if (finished) break;
     }
-    if (finished) break;
   }
-  compute.join();
-  writer.reset();  // flushes nothing more: the buffer is empty or the store failed
 
-  sum.computed = committed_computed;
-  sum.failed = committed_failed;
-  sum.batched = batched_runs.load();
-  sum.store_s = store_s;
-  if (!store_error.empty()) return fail("store: " + store_error);
-
-  try {
-    store::Store store = store::Store::open(db);
-    const store::RunCounts counts = store.count_runs(study_id);
-    progress.done = counts.done;
-    progress.failed = counts.failed;
-    if (counts.done >= counts.total) {
-      store.set_study_state(study_id, store::StudyState::kSucceeded);
-      sum.outcome = RunOutcome::kCompleted;
-    } else if (opt.cancel != nullptr && opt.cancel->load()) {
-      store.set_study_state(study_id, store::StudyState::kCancelled);
-      sum.outcome = RunOutcome::kCancelled;
-    } else if (opt.stop != nullptr && opt.stop->load()) {
-      sum.outcome = RunOutcome::kStopped;  // left running: resumes on restart
-    } else {
-      return fail("only " + std::to_string(counts.done) + " of " + std::to_string(counts.total) +
-                  " runs are stored after the study ran");
+  /// The study's final state from what the store holds now.
+  RunSummary finish() {
+    try {
+      const RunSummary* done = retry_while_busy([&]() -> const RunSummary* {
+        store::Store store = store::Store::open(db_);
+        const store::RunCounts counts = store.count_runs(id_);
+        progress_.done = counts.done;
+        progress_.failed = counts.failed;
+        if (counts.done >= counts.total) {
+          store.set_study_state(id_, store::StudyState::kSucceeded);
+          sum_.outcome = RunOutcome::kCompleted;
+        } else if (opt_.cancel != nullptr && opt_.cancel->load()) {
+          store.set_study_state(id_, store::StudyState::kCancelled);
+          sum_.outcome = RunOutcome::kCancelled;
+        } else if (opt_.stop != nullptr && opt_.stop->load()) {
+          sum_.outcome = RunOutcome::kStopped;  // left running: resumes on restart
+        } else {
+          incomplete_ = "only " + std::to_string(counts.done) + " of " +
+                        std::to_string(counts.total) + " runs are stored after the study ran";
+          return nullptr;
+        }
+        return &sum_;
+      }, opt_.stop);
+      if (done == nullptr) return fail(incomplete_);
+    } catch (const std::exception& e) {
+      return fail(e);
     }
-  } catch (const std::exception& e) {
-    return fail(e.what());
+    report();
+    sum_.wall_s = seconds_since(t_start_);
+    return sum_;
   }
-  report();
-  sum.wall_s = seconds_since(t_start);
-  return sum;
+
+  const std::filesystem::path& db_;
+  const std::string& id_;
+  const StudySpec& spec_;
+  const RunnerOptions& opt_;
+  const Clock::time_point t_start_ = Clock::now();
+  RunSummary sum_;
+  Progress progress_;
+  std::vector<std::size_t> pending_;
+  std::optional<measured::MeasuredDataset> measured_;
+  std::optional<store::RunWriter> writer_;
+  // Workers -> queue -> this thread (the single writer).
+  std::mutex mu_;
+  std::condition_variable cv_;
+  std::deque<store::RunRecord> queue_;
+  bool workers_done_ = false;
+  std::atomic<bool> abort_{false};  // set by this thread when the store fails
+  std::atomic<std::int64_t> batched_runs_{0};
+  std::optional<std::string> store_error_;
+  store::StoreFault store_fault_ = store::StoreFault::kNone;
+  std::string incomplete_;
+  double store_s_ = 0.0;
+  std::int64_t committed_computed_ = 0, committed_failed_ = 0;
+  std::int64_t buffered_computed_ = 0, buffered_failed_ = 0;
+};
+
+}  // namespace
+
+RunSummary run_study(const std::filesystem::path& db, const std::string& study_id,
+                     const StudySpec& spec, const RunnerOptions& opt) {
+  return StudyRun(db, study_id, spec, opt).run();
 }
 
 }  // namespace stickslip::studies

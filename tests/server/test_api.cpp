@@ -274,6 +274,34 @@ TEST_F(ApiTest, ListPaginatesInCreationOrder) {
   expect_problem(api.handle(get("/v1/studies?page_token=%00%01")), 400);
 }
 
+TEST_F(ApiTest, APageTokenThatNoPageReturnedIs400) {
+  // Any [A-Za-z0-9-] token used to list the studies after it, 200 (issue 18, defect 6).
+  Api api(options());
+  const std::string id = body_json(api.handle(post_json("/v1/studies", tiny_study())))["id"];
+  for (const std::string bad : {"abc", "st-0", "st-ffffffffffffffffffff", "dg-018f3a2b4c5d9e8f7a6b"}) {
+    const json p = expect_problem(api.handle(get("/v1/studies?page_token=" + bad)), 400);
+    EXPECT_EQ(p["errors"][0]["parameter"], "page_token") << bad;
+    expect_problem(api.handle(get("/v1/diagnoses?page_token=" + bad)), 400);
+  }
+  // A diagnosis' id is no token of the studies, nor a study's of the diagnoses.
+  expect_problem(api.handle(get("/v1/diagnoses?page_token=" + id)), 400);
+  const Response ok = api.handle(get("/v1/studies?page_token=" + id));
+  ASSERT_EQ(ok.status, 200) << ok.body;
+  EXPECT_TRUE(body_json(ok)["studies"].empty());
+}
+
+TEST_F(ApiTest, HealthzIsDegradedWhileAWorkerIsPausedByTheStore) {
+  auto health = std::make_shared<Health>();
+  Api api(options(), nullptr, nullptr, health);
+  EXPECT_EQ(api.handle(get("/healthz")).status, 200);
+  health->degrade("study", "disk I/O error (SQLite code 778)", std::chrono::seconds(4));
+  const json p = expect_problem(api.handle(get("/healthz")), 503);
+  EXPECT_EQ(p["health"], "degraded");
+  EXPECT_NE(p["detail"].get<std::string>().find("disk I/O error"), std::string::npos);
+  health->recover("study");
+  EXPECT_EQ(api.handle(get("/healthz")).status, 200);
+}
+
 /// A run record as the runner would store it.
 store::RunRecord make_run(const std::string& study, std::int64_t index, const std::string& model,
                             double ratio, const std::string& status = "ok") {

@@ -303,7 +303,7 @@ TEST_F(DiagnosisWorkerFake, CancelWhileRunningDiscardsTheResult) {
   Api api(ao_, nullptr, &worker);
   worker.start();
   const std::string id = queue("c");
-  worker.notify_diagnosis();
+  worker.notify();
   fake_.wait_started(1);
   EXPECT_EQ(state(id), StudyState::kRunning);
   const Response c = api.handle(post_json("/v1/diagnoses/" + id + ":cancel", ""));
@@ -322,7 +322,7 @@ TEST_F(DiagnosisWorkerFake, AFailingDiagnosisIsFailedWithItsError) {
   worker.start();
   fake_.fail_next();
   const std::string id = queue("f");
-  worker.notify_diagnosis();
+  worker.notify();
   fake_.release();
   const json d = wait_state(api, id, {"failed"});
   EXPECT_EQ(d["error"], "runs: nothing to fit");
@@ -361,7 +361,7 @@ TEST_F(DiagnosisWorkerFake, CancelWhileRunningStopsTheComputation) {
   Api api(ao_, nullptr, &worker);
   worker.start();
   const std::string id = queue("long");
-  worker.notify_diagnosis();
+  worker.notify();
   slow.wait_started();
   EXPECT_TRUE(slow.had_callback());
   const Response c = api.handle(post_json("/v1/diagnoses/" + id + ":cancel", ""));
@@ -375,7 +375,7 @@ TEST_F(DiagnosisWorkerFake, CancelWhileRunningStopsTheComputation) {
   EXPECT_TRUE(d["result"].is_null());
   // The worker is free for the next one.
   const std::string next = queue("quick");
-  worker.notify_diagnosis();
+  worker.notify();
   EXPECT_EQ(wait_state(api, next, {"succeeded"})["result"]["dataset"], "quick");
 }
 

@@ -368,7 +368,9 @@ TEST_F(Interrupted, SigtermExitsZeroKeepsFinishedRunsAndTheStudyResumes) {
     d.process().signal(SIGTERM);
     EXPECT_EQ(d.process().wait(60s), 0) << d.process().err();
   }
-  auto store = store::Store::open(dir_ / "e2e.db");
+  // Read-only: a read-write Store would make this process the store's writer (docs/store.md)
+  // and the next stickslipd would refuse to start.
+  auto store = store::Store::open(dir_ / "e2e.db", store::Store::Mode::kReadOnly);
   const auto rec = store.get_study(id);
   EXPECT_EQ(rec->state, store::StudyState::kQueued) << "not left to resume";
   const StoreFacts mid = store_facts(dir_ / "e2e.db", id);

@@ -4,6 +4,7 @@
 #include "stickslip/studies/runner.h"
 
 #include <gtest/gtest.h>
+#include <sqlite3.h>
 
 #include <atomic>
 #include <cmath>
@@ -13,6 +14,7 @@
 #include <random>
 #include <set>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "stickslip/engine/simulate.h"
@@ -342,6 +344,48 @@ TEST(Runner, StoreProblemsFailTheStudyWithoutThrowing) {
   const RunSummary s2 = run_study(dir / "empty.db", "st-unknown", spec, {});
   EXPECT_EQ(s2.outcome, RunOutcome::kFailed);
   EXPECT_NE(s2.error.find("st-unknown"), std::string::npos) << s2.error;
+}
+
+
+// Another process holding the store's write lock for longer than the busy timeout made a batch
+// fail un-retried, and the whole study failed (issue 18, defect 3). Now the runner waits for the
+// lock with backoff and the study completes.
+TEST(Runner, AnotherWriterHoldingTheLockPastTheBusyTimeoutNeverFailsTheStudy) {
+  TempDir dir;
+  const fs::path db = dir / "busy.db";
+  std::string points;
+  for (int i = 0; i < 200; ++i)
+    points += std::string(i ? "," : "") + R"({"x1": )" + std::to_string(0.01 * i) +
+              R"(, "x2": 0, "x3": 0})";
+  const StudySpec spec = parse_ok(R"({"name": "busy", "base": {"model": "ishigami"}, )"
+                                  R"("design": {"type": "list", "points": [)" + points + "]}}");
+  { store::Store::open(db); }
+  sqlite3* other = nullptr;
+  ASSERT_EQ(sqlite3_open(db.c_str(), &other), SQLITE_OK);
+  std::thread releaser;
+  bool locked = false;
+  RunnerOptions opt;
+  opt.threads = 1;
+  opt.writer.max_batch = 16;
+  opt.writer.busy_timeout = std::chrono::milliseconds(50);
+  opt.on_progress = [&](const Progress&) {
+    if (locked) return;  // the first report comes before the first commit
+    locked = true;
+    ASSERT_EQ(sqlite3_exec(other, "BEGIN IMMEDIATE", nullptr, nullptr, nullptr), SQLITE_OK);
+    releaser = std::thread([other] {
+      std::this_thread::sleep_for(std::chrono::milliseconds(1500));
+      sqlite3_exec(other, "COMMIT", nullptr, nullptr, nullptr);
+    });
+  };
+  std::string id;
+  const RunSummary s = run_new(db, spec, opt, &id);
+  if (releaser.joinable()) releaser.join();
+  sqlite3_close(other);
+  EXPECT_TRUE(locked);
+  EXPECT_EQ(s.outcome, RunOutcome::kCompleted) << s.error;
+  auto store = store::Store::open(db);
+  EXPECT_EQ(store.count_runs(id).done, 200);
+  EXPECT_EQ(store.get_study(id)->state, store::StudyState::kSucceeded);
 }
 
 }  // namespace

@@ -27,6 +27,7 @@ void add_synth_command(CLI::App& app, int& exit_code);
 void add_diagnose_command(CLI::App& app, int& exit_code);
 void add_table_command(CLI::App& app, int& exit_code);
 void add_study_command(CLI::App& app, int& exit_code);
+void add_store_command(CLI::App& app, int& exit_code);  ///< `store check DB`
 void add_map_command(CLI::App& app, int& exit_code);  ///< `map` (local --db, or --server) and `rmse`
 void add_indices_command(CLI::App& app, int& exit_code);
 void add_report_command(CLI::App& app, int& exit_code);

@@ -22,6 +22,11 @@
 
 namespace stickslip::diagnosis {
 
+/// The "minimum" of an integer option in schemas/diagnosis_request.schema.json ($defs/options):
+/// the one place where those limits are written. DiagnoseOptions::IsValid enforces the same
+/// numbers, so a request the schema accepts is never refused later for its options' bounds.
+int option_minimum(const std::string& option);
+
 struct DiagnosisRequest {
   measured::MeasuredDataset data;
   DiagnoseOptions options;  ///< defaults, overridden by the request's options; keep_traces off

@@ -34,11 +34,17 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
-#include "stickslip/server/diagnosis_worker.h"
+#include <functional>
+#include <variant>
+
+#include <nlohmann/json.hpp>
+
+#include "stickslip/server/health.h"
 #include "stickslip/server/http.h"
+#include "stickslip/server/job_worker.h"
 #include "stickslip/server/router.h"
-#include "stickslip/server/scheduler.h"
 #include "stickslip/server/store_pool.h"
 #include "stickslip/studies/spec.h"
 
@@ -65,13 +71,38 @@ struct ApiOptions {
   bool IsValid(std::string* why) const;
 };
 
+/// One kind of job as an HTTP resource: what the one set of create, list, get and cancel
+/// handlers (api_jobs.cpp) needs to know about it. Defined for studies in api.cpp and for
+/// diagnoses in api_diagnoses.cpp; a new kind of job adds one.
+struct JobResource {
+  std::string kind;          ///< the store's job kind, e.g. "study"
+  std::string collection;    ///< "/v1/studies"
+  std::string list_key;      ///< the list's member, "studies"
+  std::string noun;          ///< in messages and problem types: "study" (study-not-found, ...)
+  std::string title;         ///< in problem titles: "Study"
+  std::string request_noun;  ///< "a study" (415: "<request_noun> must be sent as ...")
+  std::size_t max_body_bytes = 0;
+  std::string max_body_option;  ///< the stickslipd option that sets it, e.g. "--max-body"
+  JobScheduler* scheduler = nullptr;  ///< null: jobs are only queued; cancel acts on the store
+  bool name_filter = false;           ///< the list takes ?name= (a substring of the name)
+  store::JobColumns detail_columns;   ///< read for the single-job form
+  store::JobColumns list_columns;     ///< read for a list page
+  /// The resource's JSON; detail: the single-job form (spec, result, ...), else a list entry.
+  std::function<nlohmann::json(const store::JobRecord&, bool detail)> to_json;
+  /// Every check the worker will make on a POST body (doc is its parsed JSON): the job to store
+  /// (kind, name, request, progress total), or the 4xx problem.
+  std::function<std::variant<store::NewJob, Response>(const nlohmann::json& doc,
+                                                      const Request& r)>
+      check;
+};
+
 class Api {
  public:
   /// Opens the store (throws studies::StoreError naming the path when it cannot) and registers
-  /// the routes. scheduler may be null (then nothing runs; cancel acts on the store directly).
-  /// diagnoses may be null too (then diagnoses are only queued; cancel acts on the store).
-  Api(ApiOptions options, Scheduler* scheduler = nullptr,
-      DiagnosisScheduler* diagnoses = nullptr);
+  /// the routes. scheduler (studies) and diagnoses may be null (then jobs of that kind are only
+  /// queued; cancel acts on the store directly). health (may be null): /healthz reports it.
+  Api(ApiOptions options, JobScheduler* scheduler = nullptr, JobScheduler* diagnoses = nullptr,
+      std::shared_ptr<const Health> health = nullptr);
 
   /// Routes and handles one request. Never throws.
   Response handle(const Request& request) const;
@@ -88,24 +119,29 @@ class Api {
   std::uint64_t responses(int status_class) const noexcept;
 
  private:
-  Response create_study(const Request& r) const;
-  Response list_studies(const Request& r) const;
+  // The job resources (api_jobs.cpp): one set of handlers for every kind.
+  Response create_job(const Request& r, const JobResource& res) const;
+  Response list_jobs(const Request& r, const JobResource& res) const;
+  Response get_job(const Request& r, const JobResource& res, const std::string& id) const;
+  Response cancel_job(const Request& r, const JobResource& res, const std::string& id) const;
+  /// Registers the four routes of res under res.collection (get: the handler of
+  /// GET {collection}/{id}, e.g. with a cache).
+  void add_job_routes(const JobResource& res,
+                      std::function<Response(const Request&, const std::string&)> get);
+  JobResource study_resource(JobScheduler* scheduler) const;      // api.cpp
+  JobResource diagnosis_resource(JobScheduler* scheduler) const;  // api_diagnoses.cpp
+
   Response get_study(const Request& r, const std::string& id) const;
   Response get_runs(const Request& r, const std::string& id) const;
   Response get_map(const Request& r, const std::string& id) const;
-  Response cancel_study(const Request& r, const std::string& id) const;
   Response get_indices(const Request& r, const std::string& id) const;
   Response list_reports(const Request& r) const;
   /// A file of a report: reports_dir/date/sub/name (sub "" or "plots"); names are checked.
   Response get_report_file(const Request& r, const std::string& date, const std::string& sub,
                            const std::string& name) const;
-  Response create_diagnosis(const Request& r) const;
-  Response list_diagnoses(const Request& r) const;
-  Response get_diagnosis(const Request& r, const std::string& id) const;
   Response list_diagnosis_traces(const Request& r, const std::string& id) const;
   Response get_diagnosis_trace(const Request& r, const std::string& id,
                                const std::string& run) const;
-  Response cancel_diagnosis(const Request& r, const std::string& id) const;
   Response healthz(const Request& r) const;
   Response metrics(const Request& r) const;
   Response openapi(const Request& r) const;
@@ -115,9 +151,9 @@ class Api {
   std::optional<Response> check_token(const Request& r) const;
 
   ApiOptions options_;
-  Scheduler* scheduler_;
-  DiagnosisScheduler* diagnoses_;
+  std::shared_ptr<const Health> health_;
   mutable StorePool pool_;
+  JobResource studies_, diagnoses_;
   Router router_;
   mutable std::array<std::atomic<std::uint64_t>, 6> responses_{};
   struct CachedStudy {

@@ -18,7 +18,8 @@
 // Limits, per connection:
 //  - idle_timeout: how long a connection may sit without sending the first byte of a request;
 //  - read_timeout: how long reading one whole request (header and body) may take, so a client
-//    that sends slowly cannot hold a connection (and its memory) for long;
+//    that sends slowly cannot hold a connection (and its memory) for long; it then gets a 408
+//    and the connection closes;
 //  - write_timeout: the same for writing the response;
 //  - max_body_bytes / max_header_bytes: larger requests get 413 / 431 and the connection closes;
 //    path_body_limits raises (or lowers) the body limit for exact request paths (the header is
@@ -48,7 +49,7 @@ struct ServerOptions {
   std::string bind = "127.0.0.1";
   unsigned short port = 8080;  ///< 0: an ephemeral port (see HttpServer::port())
   int io_threads = 1;
-  int handler_threads = 2;
+  int handler_threads = 2;  ///< 0: handlers of requests without a body run on the I/O thread
   /// Nice increment (Linux, per thread, 0..19) of the I/O and handler threads over the
   /// process's nice value; 0 (default) = same priority as the rest of the process, e.g. a
   /// study (WorkerOptions::nice 0): see the header comment.

@@ -1,33 +1,24 @@
 #pragma once
-// The study worker: threads of their own (never the HTTP I/O threads) that take queued studies
-// from the store in creation order and run them with studies::run_study (OpenMP inside).
+// The study worker: the job worker (job_worker.h) for jobs of kind "study", whose runner is
+// studies::run_study (OpenMP inside; it computes only the missing runs, so an interrupted study
+// resumes where it stopped).
 //
-// - concurrency studies run at once (default 1), each with its own cancel flag. A worker thread
-//   claims a study under a mutex, after re-reading its state, so a study is never run twice and
-//   a cancel either reaches the worker that claimed it or cancels it in the store.
-// - The store is the queue: studies in state queued or running (running = interrupted by a
-//   crash or a shutdown) are picked up in id order (= creation order), so after a restart every
-//   unfinished study resumes by itself; run_study computes only the missing runs.
-// - shutdown(): no study is claimed any more and the stop flag (RunnerOptions::stop) of every
-//   running study is set: run_study starts no new run, commits the runs that finish, and returns
-//   kStopped. The study is then put back to queued (not cancelled), so the next start resumes
-//   it. Blocks until done. A user's cancel sets RunnerOptions::cancel instead (-> cancelled).
+// - Cancel is deferred: the study's cancel flag (RunnerOptions::cancel) stops new runs, the runs
+//   that finish are committed, and run_study marks the study cancelled (the API answers 202).
+// - Shutdown: the stop flag (RunnerOptions::stop) does the same but leaves the study queued, so
+//   the next start resumes it.
 // - A study whose stored spec does not parse (e.g. a limit was lowered since it was queued) is
-//   marked failed with the errors.
+//   marked failed with the errors. A store fault (run_study's RunSummary::store_fault) leaves
+//   the study queued with the error and pauses the worker (job_worker.h).
 
-#include <atomic>
 #include <chrono>
-#include <condition_variable>
 #include <filesystem>
 #include <functional>
-#include <map>
 #include <memory>
-#include <mutex>
 #include <string>
-#include <thread>
 #include <vector>
 
-#include "stickslip/server/scheduler.h"
+#include "stickslip/server/job_worker.h"
 #include "stickslip/studies/runner.h"
 #include "stickslip/studies/spec.h"
 
@@ -53,46 +44,13 @@ struct WorkerOptions {
   bool IsValid(std::string* why) const;
 };
 
-class Worker final : public Scheduler {
+/// The "run this job" step of a study: parses the stored spec and calls run (run_study).
+RunJobFn study_runner(RunStudyFn run, const WorkerOptions& options);
+
+class Worker final : public JobWorker {
  public:
-  Worker(std::filesystem::path db, WorkerOptions options, RunStudyFn run);
-  ~Worker() override;  ///< shutdown()
-  Worker(const Worker&) = delete;
-  Worker& operator=(const Worker&) = delete;
-
-  /// Starts the worker threads (once).
-  void start();
-  /// See the header comment. Idempotent; blocks until every worker thread has finished.
-  void shutdown();
-
-  void notify() override;
-  CancelOutcome cancel(store::Store& store, const std::string& id) override;
-
-  /// Ids of the studies being run now.
-  std::vector<std::string> running() const;
-  /// Studies finished by this worker (any outcome) since start.
-  std::size_t finished() const noexcept { return finished_.load(); }
-
- private:
-  struct Claim {
-    std::atomic<bool> cancel{false};  // a user's cancel
-    std::atomic<bool> stop{false};    // shutdown
-  };
-  void loop();
-  /// Under mu_: the next unclaimed queued/running study, claimed; empty when none.
-  std::string claim_next(store::Store& store, std::shared_ptr<Claim>* claim);
-  void run_one(store::Store& store, const std::string& id, const std::shared_ptr<Claim>& claim);
-
-  std::filesystem::path db_;
-  WorkerOptions options_;
-  RunStudyFn run_;
-  mutable std::mutex mu_;
-  std::condition_variable cv_;
-  bool stopping_ = false;
-  std::uint64_t notifications_ = 0;
-  std::map<std::string, std::shared_ptr<Claim>> claims_;
-  std::vector<std::thread> threads_;
-  std::atomic<std::size_t> finished_{0};
+  Worker(std::filesystem::path db, WorkerOptions options, RunStudyFn run,
+         std::shared_ptr<Health> health = nullptr);
 };
 
 }  // namespace stickslip::server

@@ -17,6 +17,11 @@
 //    writer never blocks readers. Concurrent writers (a Store changing a study's state and the
 //    RunWriter) serialise on SQLite's write lock; each waits up to busy_timeout.
 //
+// One writer (writer_lock.h): every read-write open takes the store's writer lock for this
+// process, so a second process that opens the store read-write fails with StoreLockedError
+// naming the holder. The first read-write open of a process runs a bounded PRAGMA quick_check
+// before anything is written and refuses a damaged file.
+//
 // Durability: journal_mode=WAL with synchronous=NORMAL. A commit is appended to the WAL without
 // an fsync (the WAL is synced at checkpoints), so a killed process loses nothing it committed
 // (the data is in the OS page cache); a power loss may roll back the last few commits but never
@@ -38,9 +43,26 @@
 
 namespace stickslip::store {
 
+/// What kind of failure of the store a StoreError is.
+enum class StoreFault {
+  kNone,        ///< not a fault of the store: a bad record, an unknown id, a foreign file, ...
+  kBusy,        ///< another connection held the write lock past the busy timeout: try again
+  kPersistent,  ///< I/O error, disk full, corruption, a vanished or unwritable file
+};
+
 class StoreError : public std::runtime_error {
  public:
-  using std::runtime_error::runtime_error;
+  /// sqlite_code: SQLite's extended result code when SQLite failed, else 0.
+  explicit StoreError(const std::string& what, int sqlite_code = 0)
+      : std::runtime_error(what), code_(sqlite_code) {}
+  int sqlite_code() const noexcept { return code_; }
+  /// kBusy for SQLITE_BUSY and SQLITE_LOCKED; kPersistent for SQLITE_IOERR, SQLITE_CORRUPT,
+  /// SQLITE_FULL, SQLITE_CANTOPEN, SQLITE_NOTADB, SQLITE_READONLY, SQLITE_PROTOCOL and
+  /// SQLITE_NOMEM; kNone otherwise.
+  StoreFault fault() const noexcept;
+
+ private:
+  int code_ = 0;
 };
 
 /// PRAGMA application_id of a stickslip database: "SSLP" = 0x53534C50.
@@ -50,7 +72,9 @@ inline constexpr std::int32_t kStoreApplicationId = 0x53534C50;
 /// diagnosis_traces table (a diagnosis' measured, base and extended series). An older database
 /// is migrated step by step on its first read-write open (nothing in it changes but the added
 /// tables, columns, triggers and meta rows), and read as it is by a read-only open.
-inline constexpr int kStoreSchemaVersion = 4;
+/// Version 5 keeps every job (studies, diagnoses, ...) in one jobs table; studies, diagnoses and
+/// v_study_progress became views over it (docs/store.md).
+inline constexpr int kStoreSchemaVersion = 5;
 
 /// 64-bit FNV-1a of the bytes of canonical_json as 16 lowercase hex digits.
 /// Hand-written on purpose: SQLite has no hash function, and a parameter fingerprint needs no
@@ -58,6 +82,10 @@ inline constexpr int kStoreSchemaVersion = 4;
 /// 0xcbf29ce484222325, prime 0x100000001b3) that Python can reproduce in three lines.
 std::string param_hash(std::string_view canonical_json);
 
+/// A new job id: prefix + "-" + 12 hex digits of the UTC time in ms + 8 hex digits. The ids made
+/// by one process sort in the order they were made, also within one millisecond (the low digits
+/// are random but kept above the last id's), so id order is creation order.
+std::string new_job_id(const std::string& prefix);
 /// A new, short, unique study id "st-" + 12 hex digits of the UTC time in ms + 8 random hex
 /// digits, e.g. "st-018f3a2b4c5d9e8f7a6b". Ids made by it sort in creation order.
 std::string new_study_id();
@@ -139,6 +167,48 @@ struct CreatedDiagnosis {
   bool created = false;  ///< false: the idempotency key was already stored; this is that row
 };
 
+/// A job of any kind (schema version 4, the jobs table). Studies and diagnoses are the kinds
+/// "study" and "diagnosis"; StudyRecord and DiagnosisRecord are views of a JobRecord.
+struct JobProgress {
+  std::int64_t total = 0;   ///< units of work (a study: its runs)
+  std::int64_t done = 0;    ///< units stored (a study: runs stored, kept by triggers on runs)
+  std::int64_t failed = 0;  ///< of them failed (a study: runs that are not "ok")
+};
+
+/// Input of Store::create_job.
+struct NewJob {
+  std::string id;            ///< empty: new_job_id with the kind's prefix ("st", "dg", ...)
+  std::string kind;          ///< "study", "diagnosis", ...
+  std::string name;
+  std::string request_json;  ///< what the job is asked to do; must be JSON
+  std::string request_hash;  ///< empty: param_hash(request_json)
+  std::int64_t progress_total = 0;
+  std::optional<std::string> idempotency_key;   ///< unique per kind when set
+  std::optional<std::string> idempotency_hash;  ///< hash of the request that carried the key
+};
+
+struct JobRecord {
+  std::string id, kind, name, request_hash;
+  StudyState state = StudyState::kQueued;
+  JobProgress progress;
+  std::string created_at;
+  std::optional<std::string> started_at, finished_at, error;
+  std::optional<std::string> idempotency_key, idempotency_hash;
+  std::optional<std::string> request_json;  ///< read only when JobColumns::request
+  std::optional<std::string> result_json;   ///< read only when JobColumns::result
+};
+
+/// The large columns a read includes (a diagnosis's request holds whole CSV files).
+struct JobColumns {
+  bool request = false;
+  bool result = false;
+};
+
+struct CreatedJob {
+  JobRecord job;
+  bool created = false;  ///< false: the idempotency key was already stored; job is that row
+};
+
 struct CreatedStudy {
   StudyRecord study;  ///< the stored row
   bool created = false;  ///< false: the idempotency key was already stored; study is that row
@@ -194,6 +264,24 @@ struct RunCounts {
   std::int64_t failed = 0;  ///< status "diverged" or "invalid"
 };
 
+/// A study's view of its job record (job.kind must be "study"; job.request_json read).
+StudyRecord study_from_job(const JobRecord& job);
+RunCounts run_counts_of(const JobRecord& job);
+/// A diagnosis's view of its job record.
+DiagnosisRecord diagnosis_from_job(const JobRecord& job);
+
+/// The result of a full check of a store file (check_store).
+struct StoreCheck {
+  std::vector<std::string> problems;  ///< empty: PRAGMA integrity_check said ok
+  std::int64_t foreign_key_violations = 0;
+  bool ok() const noexcept { return problems.empty() && foreign_key_violations == 0; }
+};
+/// PRAGMA integrity_check (every page and index; up to 100 problems) and foreign_key_check of a
+/// stickslip database, on a read-only connection: safe while a server writes to it.
+StoreCheck check_store(const std::filesystem::path& path);
+/// How long the start-up PRAGMA quick_check may take before it is stopped (docs/store.md).
+inline constexpr std::chrono::milliseconds kQuickCheckBudget{10000};
+
 class Store {
  public:
   enum class Mode {
@@ -218,7 +306,42 @@ class Store {
 
   const std::filesystem::path& path() const noexcept;
 
-  // --- studies ---
+  // --- jobs (any kind; schema version 4) ---
+  /// Inserts a job in state queued (created_at = now). Atomic with respect to the idempotency
+  /// key: when (kind, idempotency_key) is already stored, nothing is inserted and the stored
+  /// row is returned (with both large columns) with created == false. Throws StoreError when
+  /// the id exists or request_json is not JSON.
+  CreatedJob create_job(const NewJob& job);
+  /// The job with this id (any kind), nullopt when there is none.
+  std::optional<JobRecord> get_job(const std::string& id, JobColumns columns = {});
+  std::optional<JobRecord> find_job_by_idempotency_key(const std::string& kind,
+                                                       const std::string& key,
+                                                       JobColumns columns = {});
+  /// Keyset pagination of one kind in id (= creation) order: up to page_size jobs with
+  /// id > after_id.
+  /// With name_contains, only the jobs whose name contains it (ASCII case-insensitive).
+  std::vector<JobRecord> list_jobs(const std::string& kind, std::size_t page_size,
+                                   const std::string& after_id = "", JobColumns columns = {},
+                                   const std::string& name_contains = "");
+  /// The claim query: ids of the oldest jobs of kind that are queued or running, in id order, at
+  /// most limit; one range of the partial index jobs_pending, whatever the number of jobs.
+  std::vector<std::string> pending_jobs(const std::string& kind, std::size_t limit);
+  /// queued or running -> running (started_at set if unset, error cleared); false when the job
+  /// is no longer queued or running.
+  bool claim_job(const std::string& id);
+  /// The state rule of set_study_state, for a job of any kind.
+  void set_job_state(const std::string& id, StudyState state,
+                     const std::optional<std::string>& error = std::nullopt);
+  /// Stores the outcome (succeeded with result_json, failed with error, or cancelled) in one
+  /// statement, but only while the job is queued or running: false, changing nothing, when it
+  /// was cancelled or finished meanwhile.
+  bool finish_job(const std::string& id, StudyState state,
+                  const std::optional<std::string>& result_json,
+                  const std::optional<std::string>& error = std::nullopt);
+  /// queued or running -> queued with this error (nullopt: none); false otherwise.
+  bool requeue_job(const std::string& id, const std::optional<std::string>& error = std::nullopt);
+
+  // --- studies (jobs of kind "study") ---
   /// Inserts a study in state queued (created_at = now). Atomic with respect to the
   /// idempotency key: when new_study.idempotency_key is already stored, nothing is inserted
   /// and the stored row is returned with created == false (compare request_hash to tell a
@@ -322,10 +445,12 @@ class RunWriter {
 
   /// Validates and buffers a run (throws StoreError for a bad record: empty study_id, negative
   /// design_index, unknown status, params_json not a JSON object, bad or repeated stage
-  /// numbers), then flushes if the batch is full or due. The flush may throw (see flush()).
+  /// numbers), then flushes if the batch is full or due. The flush may throw (see flush()),
+  /// except for a busy store: then the runs stay buffered and the commit is tried again later.
   void add(RunRecord run);
   /// Commits the buffer if it holds max_batch runs or max_delay has passed since the last
-  /// commit (or since open); returns whether it committed.
+  /// commit (or since open); returns whether it committed. A busy store (StoreFault::kBusy)
+  /// does not throw: the runs stay buffered, and the next attempt waits 50 ms, doubling to 2 s.
   bool flush_if_due();
   /// Commits all buffered runs in ONE transaction; each run with its stage metrics and trace.
   /// A run whose (study_id, design_index) is already stored is not written again: with the same

@@ -55,6 +55,9 @@ const char* to_string(RunOutcome o) noexcept;
 struct RunSummary {
   RunOutcome outcome = RunOutcome::kCompleted;
   std::string error;             ///< why the study failed (kFailed)
+  /// kFailed because the store failed (busy past the retries during a shutdown, I/O error,
+  /// disk full, corruption): the study is then NOT marked failed; it resumes when run again.
+  store::StoreFault store_fault = store::StoreFault::kNone;
   std::int64_t total = 0;        ///< runs of the study
   std::int64_t skipped = 0;      ///< already stored before this call
   std::int64_t computed = 0;     ///< computed and stored by this call
@@ -72,7 +75,10 @@ store::RunRecord compute_run(const StudySpec& spec, std::size_t design_index, co
 
 /// Runs the missing runs of study_id (which must exist in db with this spec) and sets the
 /// study's state: running while working, then succeeded (all runs stored, whatever their
-/// status), cancelled, running (stopped), or failed (store error, unreadable measured data).
+/// status), cancelled, running (stopped), or failed (unreadable measured data, a rejected run).
+/// A busy store (another process holding the write lock) is waited for with backoff and never
+/// fails the study; a persistent store fault (I/O error, disk full, corruption) ends the call
+/// with kFailed and RunSummary::store_fault set, leaving the study resumable.
 /// Never throws: every problem ends up in RunSummary::error and the study's error.
 /// Analytic studies (ishigami, sobol_g) store their output y as stage 1's amplitude and
 /// mean_force.
