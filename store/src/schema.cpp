@@ -314,12 +314,27 @@ FROM jobs WHERE kind = 'study';
 CREATE TRIGGER studies_delete INSTEAD OF DELETE ON studies BEGIN
   DELETE FROM jobs WHERE id = OLD.id;
 END;
+CREATE TRIGGER studies_insert INSTEAD OF INSERT ON studies BEGIN
+  INSERT INTO jobs (id, kind, name, state, request_json, request_hash, idempotency_key,
+                    idempotency_hash, progress_total, error, created_at, started_at, finished_at)
+  VALUES (NEW.id, 'study', NEW.name, coalesce(NEW.state, 'queued'), NEW.spec_json,
+          NEW.spec_hash, NEW.idempotency_key, NEW.request_hash, NEW.total_runs, NEW.error,
+          NEW.created_at, NEW.started_at, NEW.finished_at);
+END;
 CREATE VIEW diagnoses AS
 SELECT id, name, request_json, request_hash, state, created_at, started_at, finished_at, error,
        result_json, idempotency_key
 FROM jobs WHERE kind = 'diagnosis';
 CREATE TRIGGER diagnoses_delete INSTEAD OF DELETE ON diagnoses BEGIN
   DELETE FROM jobs WHERE id = OLD.id;
+END;
+CREATE TRIGGER diagnoses_insert INSTEAD OF INSERT ON diagnoses BEGIN
+  INSERT INTO jobs (id, kind, name, state, request_json, request_hash, idempotency_key,
+                    idempotency_hash, result_json, error, created_at, started_at, finished_at)
+  VALUES (NEW.id, 'diagnosis', NEW.name, coalesce(NEW.state, 'queued'), NEW.request_json,
+          NEW.request_hash, NEW.idempotency_key,
+          CASE WHEN NEW.idempotency_key IS NULL THEN NULL ELSE NEW.request_hash END,
+          NEW.result_json, NEW.error, NEW.created_at, NEW.started_at, NEW.finished_at);
 END;
 
 CREATE VIEW v_study_progress AS

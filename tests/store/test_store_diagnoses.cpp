@@ -149,8 +149,8 @@ TEST_F(StoreDiagnoses, Version2DatabaseGetsRunCountersFilledFromItsRuns) {
   EXPECT_EQ(query_text(db, "SELECT count(*) FROM diagnosis_traces"), "0");
   EXPECT_EQ(query_text(db, "SELECT runs_done || '/' || runs_ok || '/' || runs_failed FROM studies"),
             "4/2/2");
-  // Three run-counter triggers, and (version 5) the two that delete through the views.
-  EXPECT_EQ(query_text(db, "SELECT count(*) FROM sqlite_master WHERE type = 'trigger'"), "5");
+  // Three run-counter triggers, and (version 5) the four that insert and delete through the views.
+  EXPECT_EQ(query_text(db, "SELECT count(*) FROM sqlite_master WHERE type = 'trigger'"), "7");
   EXPECT_EQ(query_text(db, runs_sql), runs_before);
   EXPECT_EQ(query_text(db, "PRAGMA integrity_check"), "ok");
   // A migrated file and a new one have the same tables, columns, views and triggers.
