@@ -149,11 +149,13 @@ ReportConfigResult parse_report_config(std::string_view text, const fs::path& co
     }
     entry.spec = std::make_shared<const studies::StudySpec>(std::move(*parsed.spec));
     const studies::DesignType type = entry.spec->design().type;
-    if (entry.kind == EntryKind::kIndices && type != studies::DesignType::kSobol &&
-        type != studies::DesignType::kMorris)
-      result.errors.push_back({at + "/spec", std::string("an indices entry needs a sobol or morris "
-                                                         "design, got '") +
+    if (entry.kind == EntryKind::kIndices &&
+        (type == studies::DesignType::kGrid || type == studies::DesignType::kList))
+      result.errors.push_back({at + "/spec", std::string("an indices entry needs a sampled design "
+                                                         "(sobol, morris, efast, rbd_fast, dgsm, "
+                                                         "random or lhs), got '") +
                                                  to_string(type) + "'"});
+    entry.method = e.value("method", "");
     if (entry.kind != EntryKind::kIndices && type != studies::DesignType::kGrid)
       result.errors.push_back({at + "/spec", std::string("a ") + kind +
                                                  " entry needs a grid design, got '" +
@@ -270,6 +272,9 @@ json make_summary(store::Store& store, const ReportConfig& config, const std::ve
     by_entry[e.id] = c.failed;
     if (e.kind == EntryKind::kIndices) {
       studies::IndicesOptions io = config.indices;
+      io.method = e.method;
+      io.convergence = e.spec->design().type == studies::DesignType::kSobol &&
+                       (e.method.empty() || e.method == "sobol");
       j["indices"] = studies::indices_json(store, study->id, e.outputs, io);
     } else {
       j["map"] = studies::map_to_json(studies::build_map(store, study->id));
@@ -317,15 +322,19 @@ void compare_indices(const std::string& entry, const json& prev, const json& cur
       continue;
     }
     const json& p = *it->second;
-    const bool pv = p.value("valid", false), cv = o.value("valid", false);
-    if (pv != cv) {
+    // Summaries written before "status" existed have only "valid".
+    auto status = [](const json& out) {
+      return out.value("status", std::string(out.value("valid", false) ? "ok" : "invalid"));
+    };
+    const std::string ps = status(p), cs = status(o);
+    if (ps != cs) {
       flags.push_back({{"entry", entry}, {"output", name}, {"parameter", nullptr},
-                       {"index", "valid"}, {"previous", pv}, {"current", cv},
-                       {"reason", cv ? "indices became valid" : "indices became invalid: " +
-                                                                     o.value("reason", "")}});
+                       {"index", "status"}, {"previous", ps}, {"current", cs},
+                       {"reason", "indices went from " + ps + " to " + cs +
+                                      (cs == "ok" ? std::string() : ": " + o.value("reason", ""))}});
       continue;
     }
-    if (!cv) continue;
+    if (cs != "ok") continue;
     std::map<std::string, const json*> prev_par;
     for (const auto& x : array_at(p, "indices"))
       prev_par[x.value("parameter", "")] = &x;
@@ -336,8 +345,9 @@ void compare_indices(const std::string& entry, const json& prev, const json& cur
         notes.push_back(entry + ": " + name + ": parameter " + par + " is new");
         continue;
       }
-      for (const char* idx : {"S1", "ST", "mu_star"}) {
-        const std::string ci = std::string(idx) + "_ci";
+      for (const auto& [key, value] : x.items()) {
+        if (key.size() <= 3 || key.compare(key.size() - 3, 3, "_ci") != 0) continue;
+        const std::string idx = key.substr(0, key.size() - 3), ci = key;
         if (!x.contains(ci) || !pit->second->contains(ci)) continue;
         const auto a = interval_of((*pit->second)[ci]), b = interval_of(x[ci]);
         if (!a || !b) continue;

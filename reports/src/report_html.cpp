@@ -4,12 +4,7 @@
 // scripts with the data inline ($data << EOD blocks) and the HTML around them. Each SVG is kept in
 // dir/plots/ and embedded in index.html as a base64 data: URI, so the page opens offline and the
 // plots' ids cannot clash (inline SVGs from gnuplot reuse the same element ids).
-#include <sys/wait.h>
-#include <unistd.h>
-
 #include <algorithm>
-#include <boost/archive/iterators/base64_from_binary.hpp>
-#include <boost/archive/iterators/transform_width.hpp>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -17,136 +12,16 @@
 #include <set>
 #include <sstream>
 
+#include "report_plot.h"
 #include "stickslip/reports/report.h"
 
 namespace stickslip::reports {
 namespace {
 
+using namespace detail;
+
 namespace fs = std::filesystem;
 using json = nlohmann::json;
-
-// ------------------------------------------------------------------------------ helpers
-
-std::string html_escape(std::string_view s) {
-  std::string o;
-  o.reserve(s.size());
-  for (char c : s) {
-    switch (c) {
-      case '&': o += "&amp;"; break;
-      case '<': o += "&lt;"; break;
-      case '>': o += "&gt;"; break;
-      case '"': o += "&quot;"; break;
-      case '\'': o += "&#39;"; break;
-      default: o += c;
-    }
-  }
-  return o;
-}
-
-// A string for a gnuplot double-quoted literal (titles, labels).
-std::string gp_quote(std::string_view s) {
-  std::string o = "\"";
-  for (char c : s) {
-    if (c == '"' || c == '\\') o += '\\';
-    if (c == '_' || c == '^' || c == '{' || c == '}' || c == '@' || c == '&') o += "\\\\";
-    o += c;
-  }
-  return o + "\"";
-}
-
-std::string base64(const std::string& bytes) {
-  using namespace boost::archive::iterators;
-  using It = base64_from_binary<transform_width<std::string::const_iterator, 6, 8>>;
-  std::string out(It(bytes.begin()), It(bytes.end()));
-  out.append((3 - bytes.size() % 3) % 3, '=');
-  return out;
-}
-
-std::string g(double v) {
-  if (!std::isfinite(v)) return "NaN";
-  char buf[40];
-  std::snprintf(buf, sizeof buf, "%.9g", v);
-  return buf;
-}
-std::string g(const json& j) { return j.is_number() ? g(j.get<double>()) : "NaN"; }
-
-std::string fmt(const json& j, const char* f = "%.4g") {
-  if (!j.is_number()) return "&ndash;";
-  char buf[40];
-  std::snprintf(buf, sizeof buf, f, j.get<double>());
-  return buf;
-}
-
-std::string safe_name(std::string s) {
-  for (char& c : s)
-    if (!std::isalnum(static_cast<unsigned char>(c)) && c != '-' && c != '_') c = '-';
-  return s;
-}
-
-// Runs gnuplot on a script file (no shell: fork + execvp); stderr goes to a file that is quoted
-// in the error when gnuplot fails.
-void run_gnuplot(const std::string& gnuplot, const fs::path& script) {
-  const fs::path err = script.string() + ".stderr";
-  const pid_t pid = fork();
-  if (pid < 0) throw std::runtime_error("cannot start gnuplot: fork failed");
-  if (pid == 0) {
-    if (FILE* f = std::freopen(err.c_str(), "w", stderr); f == nullptr) _exit(126);
-    const std::string s = script.string();
-    char* argv[] = {const_cast<char*>(gnuplot.c_str()), const_cast<char*>(s.c_str()), nullptr};
-    execvp(argv[0], argv);
-    _exit(127);
-  }
-  int status = 0;
-  while (waitpid(pid, &status, 0) < 0)
-    if (errno != EINTR) throw std::runtime_error("waitpid on gnuplot failed");
-  std::ifstream in(err);
-  std::stringstream msg;
-  msg << in.rdbuf();
-  if (!WIFEXITED(status) || WEXITSTATUS(status) != 0)
-    throw std::runtime_error("gnuplot failed on " + script.string() +
-                             (WIFEXITED(status) && WEXITSTATUS(status) == 127
-                                  ? " ('" + gnuplot + "' not found; install gnuplot-nox)"
-                                  : "") +
-                             ": " + msg.str());
-  std::error_code ec;
-  fs::remove(err, ec);
-  fs::remove(script, ec);
-}
-
-class Plotter {
- public:
-  Plotter(fs::path dir, std::string gnuplot) : dir_(std::move(dir)), gnuplot_(std::move(gnuplot)) {
-    fs::create_directories(dir_ / "plots");
-  }
-  // Renders 'body' (gnuplot commands after terminal/output) to plots/<name>.svg and returns the
-  // <figure> element embedding it.
-  std::string figure(const std::string& name, int width, int height, const std::string& body,
-                     const std::string& caption) {
-    const std::string file = "plots/" + safe_name(name) + ".svg";
-    const fs::path script = dir_ / ("plots/" + safe_name(name) + ".gp");
-    {
-      std::ofstream gp(script);
-      gp << "set terminal svg size " << width << "," << height
-         << " dynamic enhanced font 'sans,11' background rgb 'white'\n"
-         << "set output '" << (dir_ / file).string() << "'\n"
-         << body << "\nunset output\n";
-    }
-    run_gnuplot(gnuplot_, script);
-    std::ifstream in(dir_ / file, std::ios::binary);
-    std::stringstream svg;
-    svg << in.rdbuf();
-    if (svg.str().find("<svg") == std::string::npos)
-      throw std::runtime_error("gnuplot wrote no SVG to " + (dir_ / file).string());
-    return "<figure><img src=\"data:image/svg+xml;base64," + base64(svg.str()) + "\" alt=\"" +
-           html_escape(caption) + "\" data-plot=\"" + file + "\" width=\"" +
-           std::to_string(width) + "\" height=\"" + std::to_string(height) +
-           "\"><figcaption>" + html_escape(caption) + "</figcaption></figure>\n";
-  }
-
- private:
-  fs::path dir_;
-  std::string gnuplot_;
-};
 
 // ------------------------------------------------------------------------------ maps
 
@@ -166,39 +41,29 @@ std::string map_section(Plotter& plot, const std::string& id, const json& map) {
   auto xval = [&](std::size_t r) -> std::string {
     return one_key ? g(rows[r]["key"][xname]) : std::to_string(r);
   };
-  // Heatmap per stage: x = map variable, y = model, colour = amplitude [N].
+  // Heatmap per stage: x = map row (labelled with the map variable), y = model, colour =
+  // amplitude [N]; discrete cells (report_plot.h): the models are categories.
   for (std::size_t s = 0; s < stages; ++s) {
-    std::ostringstream b;
-    b << "$d << EOD\n";
-    for (std::size_t m = 0; m < models.size(); ++m) {
-      for (std::size_t r = 0; r < rows.size(); ++r) {
-        const json cells = rows[r]["cells"];
-        const std::string model = models[m];
-        double v = std::nan("");
-        if (cells.contains(model) && cells[model].value("state", "") == "ok")
-          v = cells[model]["amplitude"].is_array() && s < cells[model]["amplitude"].size() &&
-                      cells[model]["amplitude"][s].is_number()
-                  ? cells[model]["amplitude"][s].get<double>()
-                  : std::nan("");
-        b << r << ' ' << m << ' ' << g(v) << '\n';
-      }
-      b << '\n';
-    }
-    // x = row number (image cells must be evenly spaced), labelled with the map variable.
-    b << "EOD\nset xlabel " << gp_quote(xlabel) << "\nset cblabel " << gp_quote("amplitude [N]")
-      << "\nset xtics (";
-    const std::size_t every = std::max<std::size_t>(1, rows.size() / 10);
-    for (std::size_t r = 0; r < rows.size(); r += every)
-      b << (r ? ", " : "") << gp_quote(one_key ? fmt(rows[r]["key"][xname], "%.3g") : std::to_string(r))
-        << ' ' << r;
-    b << ")\nset xrange [-0.5:" << rows.size() - 0.5 << "]\nset ytics (";
+    Heatmap hm;
+    for (std::size_t r = 0; r < rows.size(); ++r)
+      hm.columns.push_back(one_key ? fmt(rows[r]["key"][xname], "%.3g") : std::to_string(r));
+    for (const json& m : models) hm.rows.push_back(m.get<std::string>());
+    hm.value.assign(models.size(), std::vector<double>(rows.size(), std::nan("")));
     for (std::size_t m = 0; m < models.size(); ++m)
-      b << (m ? ", " : "") << gp_quote(models[m].get<std::string>()) << ' ' << m;
-    b << ")\nset yrange [-0.5:" << models.size() - 0.5 << "]\nset palette rgb 33,13,10\n"
-      << "set title " << gp_quote("stick-slip amplitude, stage " + std::to_string(s + 1))
-      << "\nplot $d using 1:2:3 with image notitle\n";
-    h << plot.figure(id + "-heatmap-stage" + std::to_string(s + 1), 820, 80 + 60 * models.size() + 80,
-                     b.str(),
+      for (std::size_t r = 0; r < rows.size(); ++r) {
+        const json& cells = rows[r]["cells"];
+        const std::string model = models[m];
+        if (!cells.contains(model) || cells[model].value("state", "") != "ok") continue;
+        const json& amp = cells[model]["amplitude"];
+        if (amp.is_array() && s < amp.size() && amp[s].is_number()) hm.value[m][r] = amp[s].get<double>();
+      }
+    hm.column_tic_every = std::max<std::size_t>(1, rows.size() / 10);
+    hm.xlabel = xlabel;
+    hm.cblabel = "amplitude [N]";
+    hm.title = "stick-slip amplitude, stage " + std::to_string(s + 1);
+    const std::string b = heatmap_script(hm);
+    h << plot.figure(id + "-heatmap-stage" + std::to_string(s + 1), 820,
+                     80 + 60 * static_cast<int>(models.size()) + 80, b,
                      "Stick-slip map (" + id + "), stage " + std::to_string(s + 1) +
                          ": amplitude of F_d [N] per model against " + xlabel +
                          " (blank = failed or missing run)");
@@ -308,84 +173,6 @@ std::string traces_section(Plotter& plot, store::Store& store, const std::string
   return h.str();
 }
 
-// ------------------------------------------------------------------------------ indices
-
-std::string indices_section(Plotter& plot, const std::string& id, const json& ind) {
-  std::ostringstream h;
-  const std::string method = ind.value("method", "");
-  h << "<p>" << html_escape(method) << " design, ";
-  if (method == "sobol") h << "N = " << ind.value("n", 0);
-  else h << "r = " << ind.value("trajectories", 0) << " trajectories, p = " << ind.value("levels", 0) << " levels";
-  h << ", " << ind.value("stored_runs", 0) << " of " << ind.value("total_runs", 0)
-    << " runs stored, " << ind.value("failed_runs", 0) << " failed; "
-    << fmt(ind.value("confidence", json(0.95)), "%.2g") << " bootstrap intervals ("
-    << ind.value("resamples", 0) << " resamples).</p>\n";
-  if (const auto raised = ind.value("F_S_raised_runs", 0); raised > 0)
-    h << "<p>" << raised << " runs had F_S &lt; F_C and were simulated with F_S = F_C "
-      << "(the study's F_S_below_F_C policy).</p>\n";
-  for (const json& o : ind.value("outputs", json::array())) {
-    const std::string out = o.value("output", "");
-    h << "<h4>" << html_escape(out) << "</h4>\n";
-    if (!o.value("valid", false)) {
-      h << "<p class=\"bad\">INVALID: " << html_escape(o.value("reason", "")) << "</p>\n<ul>";
-      for (const json& p : o.value("invalid_points", json::array()))
-        h << "<li>design index " << p.value("design_index", -1) << ": "
-          << html_escape(p.value("status", "")) << " " << html_escape(p.value("reason", ""))
-          << "</li>";
-      h << "</ul>\n";
-      continue;
-    }
-    const json idx = o.value("indices", json::array());
-    std::ostringstream b;
-    if (method == "sobol") {
-      b << "$d << EOD\n";
-      for (const json& x : idx)
-        b << gp_quote(x.value("parameter", "")) << ' ' << g(x["S1"]) << ' ' << g(x["S1_ci"][0])
-          << ' ' << g(x["S1_ci"][1]) << ' ' << g(x["ST"]) << ' ' << g(x["ST_ci"][0]) << ' '
-          << g(x["ST_ci"][1]) << '\n';
-      b << "EOD\nset style data histogram\nset style histogram errorbars gap 1 lw 1\n"
-        << "set style fill solid 0.7 border -1\nset boxwidth 0.9\nset grid ytics\n"
-        << "set ylabel 'index [-]'\nset yrange [-0.05:*]\nset key top right\nset title "
-        << gp_quote("Sobol indices of " + out) << "\n"
-        << "plot $d using 2:3:4:xtic(1) title 'S1' lc rgb '#4477aa', '' using 5:6:7 title 'ST' "
-           "lc rgb '#ee6677'\n";
-      h << plot.figure(id + "-sobol-" + out, 900, 420, b.str(),
-                       "Sobol first-order (S1) and total (ST) indices of " + out +
-                           " with bootstrap confidence intervals (" + id + ")");
-      h << "<table><tr><th>parameter</th><th>S1</th><th>S1 interval</th><th>ST</th>"
-           "<th>ST interval</th></tr>\n";
-      for (const json& x : idx)
-        h << "<tr><td>" << html_escape(x.value("parameter", "")) << "</td><td>" << fmt(x["S1"], "%.3f")
-          << "</td><td>[" << fmt(x["S1_ci"][0], "%.3f") << ", " << fmt(x["S1_ci"][1], "%.3f")
-          << "]</td><td>" << fmt(x["ST"], "%.3f") << "</td><td>[" << fmt(x["ST_ci"][0], "%.3f")
-          << ", " << fmt(x["ST_ci"][1], "%.3f") << "]</td></tr>\n";
-      h << "</table>\n";
-    } else {
-      b << "$d << EOD\n";
-      for (const json& x : idx)
-        b << gp_quote(x.value("parameter", "")) << ' ' << g(x["mu_star"]) << ' '
-          << g(x["mu_star_ci"][0]) << ' ' << g(x["mu_star_ci"][1]) << ' ' << g(x["sigma"])
-          << '\n';
-      b << "EOD\nset grid\nset xlabel " << gp_quote("mu* [output unit per parameter range]")
-        << "\nset ylabel " << gp_quote("sigma") << "\nset key off\nset offsets 0, graph "
-        << "0.15, graph 0.1, 0\nset xrange [0:*]\nset yrange [0:*]\nset title " << gp_quote("Morris screening of " + out)
-        << "\nplot $d using 2:5:3:4 with xerrorbars pt 7 lc rgb '#228833', "
-           "'' using 2:5:1 with labels offset char 1,char 0.7 left\n";
-      h << plot.figure(id + "-morris-" + out, 800, 500, b.str(),
-                       "Morris mu* against sigma for " + out +
-                           " (horizontal bars: bootstrap intervals of mu*) (" + id + ")");
-      h << "<table><tr><th>parameter</th><th>mu</th><th>mu*</th><th>mu* interval</th>"
-           "<th>sigma</th></tr>\n";
-      for (const json& x : idx)
-        h << "<tr><td>" << html_escape(x.value("parameter", "")) << "</td><td>" << fmt(x["mu"])
-          << "</td><td>" << fmt(x["mu_star"]) << "</td><td>[" << fmt(x["mu_star_ci"][0]) << ", "
-          << fmt(x["mu_star_ci"][1]) << "]</td><td>" << fmt(x["sigma"]) << "</td></tr>\n";
-      h << "</table>\n";
-    }
-  }
-  return h.str();
-}
-
 // ------------------------------------------------------------------------------ changes
 
 std::string key_text(const json& key) {
@@ -452,7 +239,7 @@ std::string changes_section(const json& ch) {
 const char* kStyle = R"(body{font-family:sans-serif;max-width:1100px;margin:1em auto;padding:0 1em;color:#222}
 table{border-collapse:collapse;margin:0.5em 0}td,th{border:1px solid #ccc;padding:2px 8px;text-align:right}
 th{background:#f0f0f0}td:first-child{text-align:left}figure{margin:1em 0}img{max-width:100%;height:auto}
-.bad{color:#b00020}.good{color:#1b7a1b}figcaption{font-size:90%;color:#555})";
+.bad{color:#b00020}.good{color:#1b7a1b}.warn{color:#8a5a00}figcaption{font-size:90%;color:#555})";
 
 }  // namespace
 

@@ -1,6 +1,9 @@
 // GET /v1/studies/{id}/indices (sensitivity indices of a stored Sobol or Morris study) and the
 // nightly reports: GET /v1/reports, GET /v1/reports/{date}/{file}, GET /v1/reports/{date}/plots/{file}.
+#include <cmath>
 #include <fstream>
+#include <map>
+#include <type_traits>
 #include <sstream>
 
 #include "api_util.h"
@@ -59,34 +62,68 @@ std::string content_type_of(const std::string& name) {
 
 }  // namespace
 
+namespace {
+
+/// Reads the query parameters of GET /v1/studies/{id}/indices into opt; the errors name each
+/// parameter and its value.
+std::vector<FieldError> indices_query(const std::map<std::string, std::string>& q,
+                                      studies::IndicesOptions* opt) {
+  std::vector<FieldError> errors;
+  auto number = [&](const char* key, auto* out) {
+    const auto it = q.find(key);
+    if (it == q.end()) return;
+    try {
+      std::size_t used = 0;
+      const double v = std::stod(it->second, &used);
+      if (used != it->second.size()) throw std::invalid_argument("trailing characters");
+      using T = std::remove_pointer_t<decltype(out)>;
+      if constexpr (std::is_integral_v<T>) {
+        if (!(v >= 0 && v == std::floor(v) && v < 1e15)) throw std::invalid_argument("not a count");
+      }
+      *out = static_cast<std::remove_pointer_t<decltype(out)>>(v);
+    } catch (const std::exception&) {
+      errors.push_back(FieldError::query(key, "not a valid number: \"" + it->second + "\""));
+    }
+  };
+  auto flag = [&](const char* key, bool* out) {
+    const auto it = q.find(key);
+    if (it == q.end()) return;
+    if (it->second == "1" || it->second == "true") *out = true;
+    else if (it->second == "0" || it->second == "false") *out = false;
+    else errors.push_back(FieldError::query(key, "expected true or false, got \"" + it->second + "\""));
+  };
+  number("confidence", &opt->confidence);
+  number("resamples", &opt->resamples);
+  number("seed", &opt->seed);
+  flag("keep_resamples", &opt->keep_resamples);
+  flag("convergence", &opt->convergence);
+  if (const auto it = q.find("method"); it != q.end()) opt->method = it->second;
+  if (std::string why; errors.empty() && !opt->IsValid(&why))
+    errors.push_back(FieldError::query(why.substr(0, why.find(' ')), why));
+  return errors;
+}
+
+}  // namespace
+
 Response Api::get_indices(const Request& r, const std::string& id) const {
   const auto q = r.query();
   std::vector<std::string> outputs;
   if (const auto it = q.find("output"); it != q.end()) outputs = split_list(it->second);
   studies::IndicesOptions opt;
-  if (const auto it = q.find("confidence"); it != q.end()) {
-    try {
-      std::size_t used = 0;
-      opt.confidence = std::stod(it->second, &used);
-      if (used != it->second.size()) throw std::invalid_argument("trailing characters");
-    } catch (const std::exception&) {
-      return problem(400, "bad-parameter", "Bad query parameter",
-                     "confidence must be a number in (0, 1), got \"" + it->second + "\"",
-                     {FieldError::query("confidence", "not a number: " + it->second)}, r.path());
-    }
+  if (const auto errors = indices_query(q, &opt); !errors.empty()) {
+    std::string detail;
+    for (const auto& e : errors) detail += (detail.empty() ? "" : "; ") + e.name + ": " + e.detail;
+    return problem(400, "bad-parameter", "Bad query parameter", detail, errors, r.path());
   }
-  std::string why;
-  if (!opt.IsValid(&why))
-    return problem(400, "bad-parameter", "Bad query parameter", why,
-                   {FieldError::query("confidence", why)}, r.path());
   try {
     auto store = pool_.acquire();
     if (!store->get_study(id)) return unknown_study(id, r.path());
     try {
       return json_response(200, studies::indices_json(*store, id, outputs, opt));
-    } catch (const std::invalid_argument& e) {  // not a sobol/morris study, unknown output name
+    } catch (const std::invalid_argument& e) {  // a design without indices, method, output name
       return problem(422, "no-indices", "Indices not available", e.what(),
-                     {FieldError::query("output", e.what())}, r.path());
+                     {FieldError::query(opt.method.empty() ? "output" : "method", e.what())},
+                     r.path());
     }
   } catch (const store::StoreError& e) {
     return store_failure(e, r.path());

@@ -91,6 +91,18 @@ std::vector<StudyRecord> Store::list_studies(std::size_t page_size, const std::s
   return out;
 }
 
+void Store::extend_study(const std::string& id, std::int64_t total_runs) {
+  Statement st(impl_->conn,
+               "UPDATE studies SET total_runs = ?1 WHERE id = ?2 AND total_runs <= ?1",
+               "extending study " + id);
+  st.bind_int(1, total_runs).bind_text(2, id).run();
+  if (impl_->conn.changes() > 0) return;
+  const auto study = get_study(id);
+  if (!study) fail(path(), "extending study " + id + ": no such study");
+  fail(path(), "extending study " + id + ": " + std::to_string(total_runs) +
+                   " runs is fewer than the " + std::to_string(study->total_runs) + " it has");
+}
+
 void Store::set_study_state(const std::string& id, StudyState state,
                             const std::optional<std::string>& error) {
   detail::set_job_state(impl_->conn, id, kKind, state, error);

@@ -15,6 +15,7 @@
 #include <thread>
 
 #include "stickslip/engine/batch.h"
+#include "stickslip/studies/indices.h"
 #include "stickslip/engine/simulate.h"
 
 namespace stickslip::studies {
@@ -188,6 +189,28 @@ std::vector<store::RunRecord> compute_batch(const StudySpec& spec, const std::ve
   return out;
 }
 
+// A stored study's run count fits its spec: the design's runs, or for a Sobol design with
+// "until" the runs of a base size n 2^k (or n_max) it grew to.
+bool valid_extent(const StudySpec& spec, std::int64_t total) {
+  const auto runs = static_cast<std::size_t>(std::max<std::int64_t>(total, 0));
+  if (!spec.design().until) return runs == spec.run_count();
+  return runs >= spec.run_count() && runs <= spec.max_run_count() &&
+         runs % spec.design().runs_per_row() == 0;
+}
+
+// The summary of a round followed by the summary of the rounds after it.
+RunSummary next_round(const RunSummary& first, RunSummary rest, Clock::time_point t_start) {
+  rest.skipped = first.skipped;
+  rest.computed += first.computed;
+  rest.failed += first.failed;
+  rest.batched += first.batched;
+  rest.store_s += first.store_s;
+  rest.compute_s += first.compute_s;
+  rest.until.insert(rest.until.begin(), first.until.begin(), first.until.end());
+  rest.wall_s = seconds_since(t_start);
+  return rest;
+}
+
 }  // namespace
 
 const char* to_string(RunOutcome o) noexcept {
@@ -289,10 +312,7 @@ class StudyRun {
  public:
   StudyRun(const std::filesystem::path& db, const std::string& study_id, const StudySpec& spec,
            const RunnerOptions& opt)
-      : db_(db), id_(study_id), spec_(spec), opt_(opt) {
-    sum_.total = static_cast<std::int64_t>(spec.run_count());
-    progress_.total = sum_.total;
-  }
+      : db_(db), id_(study_id), spec_(spec), opt_(opt) {}
 
   RunSummary run() {
     if (!prepare()) return sum_;
@@ -366,9 +386,13 @@ class StudyRun {
   void prepare_in(store::Store store) {
     const auto study = store.get_study(id_);
     if (!study) throw Failure{"unknown study '" + id_ + "' in " + db_.string()};
-    if (study->total_runs != sum_.total)
+    if (!valid_extent(spec_, study->total_runs))
       throw Failure{"study " + id_ + " has " + std::to_string(study->total_runs) +
-                    " runs stored but its spec gives " + std::to_string(sum_.total)};
+                    " runs stored but its spec gives " + std::to_string(spec_.run_count()) +
+                    (spec_.design().until ? " growing to " + std::to_string(spec_.max_run_count())
+                                          : std::string())};
+    sum_.total = study->total_runs;
+    progress_.total = sum_.total;
     if (spec_.measured()) {
       std::filesystem::path path = *spec_.measured();
       if (path.is_relative()) path = opt_.spec_dir / path;
@@ -379,7 +403,7 @@ class StudyRun {
       }
     }
     const auto done = store.completed_design_indices(id_);
-    std::vector<bool> have(spec_.run_count(), false);
+    std::vector<bool> have(static_cast<std::size_t>(sum_.total), false);
     for (auto i : done)
       if (i >= 0 && static_cast<std::size_t>(i) < have.size()) have[i] = true;
     pending_.clear();
@@ -526,7 +550,18 @@ class StudyRun {
         const store::RunCounts counts = store.count_runs(id_);
         progress_.done = counts.done;
         progress_.failed = counts.failed;
+        if (grown_) return &sum_;  // extended on an earlier try
         if (counts.done >= counts.total) {
+          if (const auto until = until_status(store, id_)) {  // a growing Sobol design
+            if (sum_.until.empty() || sum_.until.back() != until->reason)
+              sum_.until.push_back(until->reason);
+            if (until->grow) {
+              store.extend_study(id_, static_cast<std::int64_t>(
+                                          until->next_n * spec_.design().runs_per_row()));
+              grown_ = true;
+              return &sum_;
+            }
+          }
           store.set_study_state(id_, store::StudyState::kSucceeded);
           sum_.outcome = RunOutcome::kCompleted;
         } else if (opt_.cancel != nullptr && opt_.cancel->load()) {
@@ -542,6 +577,10 @@ class StudyRun {
         return &sum_;
       }, opt_.stop);
       if (done == nullptr) return fail(incomplete_);
+      if (grown_) {  // the next round computes the new base rows only
+        report();
+        return next_round(sum_, StudyRun(db_, id_, spec_, opt_).run(), t_start_);
+      }
     } catch (const std::exception& e) {
       return fail(e);
     }
@@ -570,6 +609,7 @@ class StudyRun {
   std::optional<std::string> store_error_;
   store::StoreFault store_fault_ = store::StoreFault::kNone;
   std::string incomplete_;
+  bool grown_ = false;  ///< a Sobol design with "until" was extended: another round follows
   double store_s_ = 0.0;
   std::int64_t committed_computed_ = 0, committed_failed_ = 0;
   std::int64_t buffered_computed_ = 0, buffered_failed_ = 0;

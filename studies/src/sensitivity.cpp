@@ -1,8 +1,11 @@
-// Sensitivity analysis: scrambled Sobol / Saltelli and Morris designs, Sobol and Morris
-// estimators with bootstrap percentile intervals, and the Ishigami / Sobol G test functions.
-// See sensitivity.h for the references (Saltelli 2010, Jansen 1999, Morris 1991,
-// Campolongo 2007). Everything here is dimensionless: designs live on [0,1]^d.
+// Sensitivity analysis: scrambled Sobol points, Saltelli and Morris designs, the Morris estimator
+// with bootstrap percentile intervals, and the Ishigami / Sobol G test functions. See
+// sensitivity.h for the references (Morris 1991, Campolongo 2007); the Sobol estimators are in
+// sa_sobol.cpp. Everything here is dimensionless: designs live on [0,1]^d.
 #include "stickslip/studies/sensitivity.h"
+
+#include "sa_bootstrap.h"
+#include "stickslip/studies/sa_sobol.h"
 
 #include <algorithm>
 #include <cmath>
@@ -15,44 +18,15 @@
 #include <vector>
 
 #include <boost/random/sobol.hpp>
-#include <boost/random/uniform_int_distribution.hpp>
 
 namespace stickslip::studies::sensitivity {
 namespace {
 
-// ---------------------------------------------------------------------------------------------
-// Argument validation
-// ---------------------------------------------------------------------------------------------
-
-[[noreturn]] void invalid(const std::string& what) { throw std::invalid_argument(what); }
-
-void require_positive(const char* name, std::size_t value, const char* func) {
-  if (value == 0) invalid(std::string(func) + ": " + name + " must be > 0, got 0");
-}
-
-void require_confidence(double confidence, const char* func) {
-  if (!(confidence > 0.0 && confidence < 1.0))
-    invalid(std::string(func) + ": confidence must be in (0, 1), got " +
-            std::to_string(confidence));
-}
-
-void require_finite(const std::vector<double>& y, const char* func) {
-  for (std::size_t k = 0; k < y.size(); ++k)
-    if (!std::isfinite(y[k]))
-      invalid(std::string(func) + ": y[" + std::to_string(k) + "] is not finite (" +
-              std::to_string(y[k]) + ")");
-}
-
-// ---------------------------------------------------------------------------------------------
-// Random helpers. Boost.Random distributions are used (not <random>'s) because their algorithms
-// are fixed, so a given seed gives the same design with every standard library.
-// ---------------------------------------------------------------------------------------------
-
-using Rng = std::mt19937_64;
-
-std::size_t uniform_index(Rng& rng, std::size_t lo, std::size_t hi) {  // inclusive bounds
-  return boost::random::uniform_int_distribution<std::size_t>(lo, hi)(rng);
-}
+using detail::invalid;
+using detail::require_finite;
+using detail::require_positive;
+using detail::Rng;
+using detail::uniform_index;
 
 /// Fisher-Yates shuffle of 0..d-1.
 std::vector<std::size_t> random_permutation(Rng& rng, std::size_t d) {
@@ -60,22 +34,6 @@ std::vector<std::size_t> random_permutation(Rng& rng, std::size_t d) {
   for (std::size_t i = 0; i < d; ++i) perm[i] = i;
   for (std::size_t i = d; i > 1; --i) std::swap(perm[i - 1], perm[uniform_index(rng, 0, i - 1)]);
   return perm;
-}
-
-/// Linear-interpolation quantile (type 7) of an already sorted, non-empty sample.
-double sorted_quantile(const std::vector<double>& sorted, double q) {
-  const double pos = q * static_cast<double>(sorted.size() - 1);
-  const auto lo = static_cast<std::size_t>(std::floor(pos));
-  const std::size_t hi = std::min(lo + 1, sorted.size() - 1);
-  const double frac = pos - static_cast<double>(lo);
-  return sorted[lo] + frac * (sorted[hi] - sorted[lo]);
-}
-
-/// Percentile bootstrap interval [(1-c)/2, (1+c)/2] from the replicate values (sorted in place).
-Interval percentile_interval(std::vector<double>& replicates, double confidence) {
-  std::sort(replicates.begin(), replicates.end());
-  return {sorted_quantile(replicates, 0.5 * (1.0 - confidence)),
-          sorted_quantile(replicates, 0.5 * (1.0 + confidence))};
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -130,27 +88,10 @@ Matrix sobol_points(std::size_t n, std::size_t d, std::uint64_t seed) {
 }
 
 Matrix saltelli_design(std::size_t n, std::size_t d, std::uint64_t seed) {
-  require_positive("n", n, "saltelli_design");
-  require_positive("d", d, "saltelli_design");
-  if (2 * d > kSobolMaxDimension)
-    invalid("saltelli_design: d must be <= " + std::to_string(kSobolMaxDimension / 2) +
-            ", got " + std::to_string(d));
-  const Matrix base = sobol_points(n, 2 * d, seed);
-
-  Matrix design(n * (d + 2), std::vector<double>(d));
-  for (std::size_t k = 0; k < n; ++k) {
-    const auto& row = base[k];
-    auto& a = design[k];
-    auto& b = design[n + k];
-    std::copy(row.begin(), row.begin() + static_cast<std::ptrdiff_t>(d), a.begin());
-    std::copy(row.begin() + static_cast<std::ptrdiff_t>(d), row.end(), b.begin());
-    for (std::size_t i = 0; i < d; ++i) {
-      auto& ab = design[(2 + i) * n + k];
-      ab = a;
-      ab[i] = b[i];
-    }
-  }
-  return design;
+  SaltelliShape shape;
+  shape.n = n;
+  shape.d = d;
+  return saltelli_rows(shape, seed);  // block layout, first order
 }
 
 // Morris (1991) trajectories. Each input i gets a base level x*_i from the lower half of the
@@ -191,130 +132,6 @@ Matrix morris_design(std::size_t r, std::size_t d, std::size_t levels, std::uint
     }
   }
   return design;
-}
-
-// ---------------------------------------------------------------------------------------------
-// Sobol indices
-// ---------------------------------------------------------------------------------------------
-namespace {
-
-/// Per-row terms of the estimators, so a bootstrap replicate only needs sums over resampled rows.
-struct SobolTerms {
-  std::size_t n = 0, d = 0;
-  double centre = 0.0;                     ///< mean of f(A), f(B): subtracted before squaring
-  std::vector<double> za, zb;              ///< f(A)_j - centre, f(B)_j - centre
-  std::vector<std::vector<double>> first;  ///< [i][j] (f(B)_j - centre) (f(AB_i)_j - f(A)_j)
-  std::vector<std::vector<double>> total;  ///< [i][j] (f(A)_j - f(AB_i)_j)^2
-};
-
-SobolTerms sobol_terms(const std::vector<double>& y, std::size_t n, std::size_t d) {
-  SobolTerms t;
-  t.n = n;
-  t.d = d;
-  double sum = 0.0;
-  for (std::size_t k = 0; k < 2 * n; ++k) sum += y[k];
-  t.centre = sum / static_cast<double>(2 * n);
-  t.za.resize(n);
-  t.zb.resize(n);
-  t.first.assign(d, std::vector<double>(n));
-  t.total.assign(d, std::vector<double>(n));
-  for (std::size_t j = 0; j < n; ++j) {
-    const double fa = y[j], fb = y[n + j];
-    t.za[j] = fa - t.centre;
-    t.zb[j] = fb - t.centre;
-    for (std::size_t i = 0; i < d; ++i) {
-      const double fab = y[(2 + i) * n + j];
-      // Saltelli 2010 (b) with f(B) centred on the mean of f(A), f(B): the same expectation
-      // (the added term c (f(AB_i) - f(A)) has mean zero) but a variance that no longer grows with
-      // the output's mean squared. Uncentred, an output with mean 7 N and sd 1.8 N (the LuGre
-      // stage-2 mean force of the nightly report) gave S1 intervals ~4x wider at the same N.
-      // SALib standardises Y before this estimator for the same reason.
-      t.first[i][j] = (fb - t.centre) * (fab - fa);
-      t.total[i][j] = (fa - fab) * (fa - fab);
-    }
-  }
-  return t;
-}
-
-struct SobolEstimate {
-  std::vector<double> S1, ST;
-  double variance = 0.0;
-};
-
-/// Estimates from the rows listed in 'rows' (the identity for the point estimate, a resample
-/// with replacement for a bootstrap replicate).
-SobolEstimate estimate_sobol(const SobolTerms& t, const std::vector<std::size_t>& rows) {
-  const auto m = static_cast<double>(rows.size());
-  double s = 0.0, s2 = 0.0;
-  for (const std::size_t j : rows) {
-    s += t.za[j] + t.zb[j];
-    s2 += t.za[j] * t.za[j] + t.zb[j] * t.zb[j];
-  }
-  const double mean = s / (2.0 * m);
-  // Total variance from A and B together (population form, as in Saltelli 2010).
-  const double variance = std::max(0.0, s2 / (2.0 * m) - mean * mean);
-
-  SobolEstimate e;
-  e.S1.assign(t.d, 0.0);
-  e.ST.assign(t.d, 0.0);
-  e.variance = variance;
-  if (!(variance > 0.0)) return e;  // constant output: every index is 0 by convention
-  for (std::size_t i = 0; i < t.d; ++i) {
-    double v1 = 0.0, vt = 0.0;
-    for (const std::size_t j : rows) {
-      v1 += t.first[i][j];
-      vt += t.total[i][j];
-    }
-    e.S1[i] = (v1 / m) / variance;           // Saltelli 2010, Table 2 (b)
-    e.ST[i] = (vt / (2.0 * m)) / variance;   // Jansen 1999, Table 2 (f)
-  }
-  return e;
-}
-
-}  // namespace
-
-SobolIndices sobol_indices(const std::vector<double>& y, std::size_t n, std::size_t d,
-                           double confidence, std::size_t resamples, std::uint64_t seed) {
-  require_positive("n", n, "sobol_indices");
-  require_positive("d", d, "sobol_indices");
-  require_positive("resamples", resamples, "sobol_indices");
-  require_confidence(confidence, "sobol_indices");
-  if (y.size() != n * (d + 2))
-    invalid("sobol_indices: y.size() must be n * (d + 2) = " + std::to_string(n * (d + 2)) +
-            ", got " + std::to_string(y.size()));
-  require_finite(y, "sobol_indices");
-
-  const SobolTerms terms = sobol_terms(y, n, d);
-  std::vector<std::size_t> rows(n);
-  for (std::size_t j = 0; j < n; ++j) rows[j] = j;
-  const SobolEstimate point = estimate_sobol(terms, rows);
-
-  SobolIndices out;
-  out.S1 = point.S1;
-  out.ST = point.ST;
-  out.variance = point.variance;
-  out.S1_ci.assign(d, Interval{});
-  out.ST_ci.assign(d, Interval{});
-  if (!(point.variance > 0.0)) return out;  // constant output: zero-width intervals at 0
-
-  // Bootstrap: resample the n base rows with replacement; the same row index j selects
-  // f(A)_j, f(B)_j and every f(AB_i)_j, so the pairing of the estimators is preserved.
-  Rng rng(seed);
-  std::vector<std::vector<double>> s1_rep(d, std::vector<double>(resamples));
-  std::vector<std::vector<double>> st_rep(d, std::vector<double>(resamples));
-  for (std::size_t b = 0; b < resamples; ++b) {
-    for (auto& j : rows) j = uniform_index(rng, 0, n - 1);
-    const SobolEstimate e = estimate_sobol(terms, rows);
-    for (std::size_t i = 0; i < d; ++i) {
-      s1_rep[i][b] = e.S1[i];
-      st_rep[i][b] = e.ST[i];
-    }
-  }
-  for (std::size_t i = 0; i < d; ++i) {
-    out.S1_ci[i] = percentile_interval(s1_rep[i], confidence);
-    out.ST_ci[i] = percentile_interval(st_rep[i], confidence);
-  }
-  return out;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -362,8 +179,7 @@ MorrisIndices morris_indices(const Matrix& x, const std::vector<double>& y, std:
                              std::uint64_t seed) {
   require_positive("r", r, "morris_indices");
   require_positive("d", d, "morris_indices");
-  require_positive("resamples", resamples, "morris_indices");
-  require_confidence(confidence, "morris_indices");
+  detail::require_bootstrap({confidence, resamples, seed, false}, "morris_indices");
   const std::size_t rows = r * (d + 1);
   if (x.size() != rows)
     invalid("morris_indices: x.size() must be r * (d + 1) = " + std::to_string(rows) +
@@ -405,7 +221,8 @@ MorrisIndices morris_indices(const Matrix& x, const std::vector<double>& y, std:
     for (auto& t : idx) t = uniform_index(rng, 0, r - 1);
     for (std::size_t i = 0; i < d; ++i) rep[i][b] = mean_abs(ee[i], idx);
   }
-  for (std::size_t i = 0; i < d; ++i) out.mu_star_ci[i] = percentile_interval(rep[i], confidence);
+  for (std::size_t i = 0; i < d; ++i)
+    out.mu_star_ci[i] = detail::percentile_interval(rep[i], confidence);
   return out;
 }
 

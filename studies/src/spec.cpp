@@ -11,6 +11,10 @@
 #include <unordered_set>
 #include <stdexcept>
 
+#include "stickslip/studies/outputs.h"
+#include "stickslip/studies/sa_dgsm.h"
+#include "stickslip/studies/sa_fast.h"
+#include "stickslip/studies/sa_sobol.h"
 #include "stickslip/studies/sensitivity.h"
 #include "stickslip/studies/study_schema_data.h"  // generated at configure time
 
@@ -307,6 +311,7 @@ class SpecBuilder {
   void read_grid(const json& design);
   void read_list(const json& design);
   void read_sampled(const json& design, DesignType type);
+  void read_until(const json& until);
   std::optional<Axis> read_axis(const json& a, const std::string& ptr);
   bool read_axis_values(const json& values, const std::string& ptr, Axis* axis);
   bool read_axis_spacing(const json& spec, const std::string& ptr, Axis* axis);
@@ -610,6 +615,12 @@ void SpecBuilder::read_design() {
     read_sampled(*design, DesignType::kSobol);
   } else if (type == "morris") {
     read_sampled(*design, DesignType::kMorris);
+  } else if (type == "efast") {
+    read_sampled(*design, DesignType::kEfast);
+  } else if (type == "rbd_fast") {
+    read_sampled(*design, DesignType::kRbdFast);
+  } else if (type == "dgsm") {
+    read_sampled(*design, DesignType::kDgsm);
   } else {
     errors_.add("/design/type", "unknown design type " + in_quotes(type));  // schema covers it
   }
@@ -788,6 +799,15 @@ void SpecBuilder::read_sampled(const json& design, DesignType type) {
   } else {
     d.n = count_at(design, "n").value_or(0);
   }
+  d.harmonics = count_at(design, "M").value_or(4);
+  d.replicates = count_at(design, "replicates").value_or(4);
+  d.step = number_at(design, "step").value_or(0.01);
+  d.second_order = member(design, "second_order") != nullptr && design["second_order"] == true;
+  if (type == DesignType::kEfast && d.n <= 4 * d.harmonics * d.harmonics)
+    errors_.add("/design/n", "eFAST needs n > 4 M^2 = " +
+                                 std::to_string(4 * d.harmonics * d.harmonics) + " (M = " +
+                                 std::to_string(d.harmonics) + "), got " + std::to_string(d.n));
+  if (const json* until = member(design, "until")) read_until(*until);
   const json* ranges = member(design, "ranges");
   if (ranges == nullptr) {
     if (analytic())
@@ -872,18 +892,52 @@ void SpecBuilder::count_runs() {
       break;
     case DesignType::kList: runs = d.points.size(); break;
     case DesignType::kRandom:
-    case DesignType::kLhs: runs = d.n; break;
-    case DesignType::kSobol: runs = saturating_mul(d.n, d.ranges.size() + 2); break;
+    case DesignType::kLhs:
+    case DesignType::kRbdFast: runs = d.n; break;
+    case DesignType::kSobol:
+    case DesignType::kDgsm: runs = saturating_mul(d.n, d.runs_per_row()); break;
     case DesignType::kMorris: runs = saturating_mul(d.trajectories, d.ranges.size() + 1); break;
+    case DesignType::kEfast:
+      runs = saturating_mul(saturating_mul(d.replicates, d.ranges.size()), d.n);
+      break;
   }
   spec_.run_count_ = runs;
-  if (runs > limits().max_runs) {
-    const std::string count = runs == std::numeric_limits<std::size_t>::max()
+  spec_.max_run_count_ = d.until ? saturating_mul(d.until->n_max, d.runs_per_row()) : runs;
+  const std::size_t most = spec_.max_run_count_;
+  if (most > limits().max_runs) {
+    const std::string count = most == std::numeric_limits<std::size_t>::max()
                                   ? std::string("too many")
-                                  : std::to_string(runs);
-    errors_.add("/design", count + " runs exceeds the limit of " +
-                               std::to_string(limits().max_runs));
+                                  : std::to_string(most);
+    errors_.add(d.until ? "/design/until/n_max" : "/design",
+                count + " runs exceeds the limit of " + std::to_string(limits().max_runs));
   }
+}
+
+void SpecBuilder::read_until(const json& until) {
+  auto& d = spec_.design_;
+  if (d.type != DesignType::kSobol) {
+    errors_.add("/design/until", "\"until\" applies to sobol designs only");
+    return;
+  }
+  SobolUntil u;
+  u.max_st_width = number_at(until, "max_st_width").value_or(u.max_st_width);
+  u.n_max = count_at(until, "n_max").value_or(0);
+  u.confidence = number_at(until, "confidence").value_or(u.confidence);
+  u.resamples = count_at(until, "resamples").value_or(u.resamples);
+  if (u.n_max < d.n)
+    errors_.add("/design/until/n_max", "n_max must be >= n = " + std::to_string(d.n) + ", got " +
+                                           std::to_string(u.n_max));
+  const OutputContext context{spec_.analytic_, analytic() ? 1 : cfg().stages.size()};
+  if (const json* outputs = member(until, "outputs"); outputs != nullptr && outputs->is_array())
+    for (std::size_t k = 0; k < outputs->size(); ++k) {
+      const std::string name = (*outputs)[k].is_string() ? (*outputs)[k].get<std::string>() : "";
+      std::string why;
+      if (!parse_output(context, name, &why))
+        errors_.add(common::pointer_append("/design/until/outputs", k), why);
+      u.outputs.push_back(name);
+    }
+  if (u.outputs.empty()) u.outputs = default_outputs(context);
+  d.until = std::move(u);
 }
 
 void SpecBuilder::sample_unit_design() {
@@ -897,9 +951,31 @@ void SpecBuilder::sample_unit_design() {
       case DesignType::kLhs:
         spec_.unit_ = std::make_shared<const Matrix>(lhs_unit(d.n, dim, d.seed));
         break;
-      case DesignType::kSobol:
+      case DesignType::kSobol: {
+        sensitivity::SaltelliShape shape;
+        shape.n = d.until ? d.until->n_max : d.n;
+        shape.d = dim;
+        shape.second_order = d.second_order;
+        shape.layout = d.sobol_rows_layout() ? sensitivity::SaltelliLayout::kRows
+                                             : sensitivity::SaltelliLayout::kBlocks;
+        spec_.unit_ = std::make_shared<const Matrix>(sensitivity::saltelli_rows(shape, d.seed));
+        break;
+      }
+      case DesignType::kEfast: {
+        sensitivity::EfastShape shape;
+        shape.n = d.n;
+        shape.d = dim;
+        shape.M = d.harmonics;
+        shape.replicates = d.replicates;
+        spec_.unit_ = std::make_shared<const Matrix>(sensitivity::efast_design(shape, d.seed));
+        break;
+      }
+      case DesignType::kRbdFast:
+        spec_.unit_ = std::make_shared<const Matrix>(sensitivity::rbd_design(d.n, dim, d.seed));
+        break;
+      case DesignType::kDgsm:
         spec_.unit_ =
-            std::make_shared<const Matrix>(sensitivity::saltelli_design(d.n, dim, d.seed));
+            std::make_shared<const Matrix>(sensitivity::dgsm_design(d.n, dim, d.step, d.seed));
         break;
       case DesignType::kMorris:
         spec_.unit_ = std::make_shared<const Matrix>(
@@ -911,9 +987,9 @@ void SpecBuilder::sample_unit_design() {
     errors_.add("/design", std::string("cannot build the design: ") + e.what());
     return;
   }
-  if (spec_.unit_->size() != spec_.run_count_)
+  if (spec_.unit_->size() != spec_.max_run_count_)
     errors_.add("/design", "the design generator returned " + std::to_string(spec_.unit_->size()) +
-                               " points instead of " + std::to_string(spec_.run_count_));
+                               " points instead of " + std::to_string(spec_.max_run_count_));
 }
 
 // ---------------------------------------------------------------- canonical form
@@ -941,7 +1017,7 @@ json SpecBuilder::design_json() const {
         axes.push_back(std::move(ax));
       }
       out["axes"] = std::move(axes);
-      break;
+      return out;
     }
     case DesignType::kList: {
       json points = json::array();
@@ -952,20 +1028,37 @@ json SpecBuilder::design_json() const {
         points.push_back(std::move(o));
       }
       out["points"] = std::move(points);
-      break;
+      return out;
     }
     case DesignType::kMorris:
       out["trajectories"] = d.trajectories;
       out["levels"] = d.levels;
-      out["seed"] = d.seed;
-      out["ranges"] = ranges();
+      break;
+    case DesignType::kEfast:
+      out["n"] = d.n;
+      out["M"] = d.harmonics;
+      out["replicates"] = d.replicates;
+      break;
+    case DesignType::kDgsm:
+      out["n"] = d.n;
+      out["step"] = d.step;
+      break;
+    case DesignType::kSobol:
+      out["n"] = d.n;
+      // Written only when set, so the canonical form (and the spec hash that resume and the
+      // nightly report's reuse key on) of every Sobol study written before them is unchanged.
+      if (d.second_order) out["second_order"] = true;
+      if (d.until)
+        out["until"] = {{"max_st_width", d.until->max_st_width}, {"n_max", d.until->n_max},
+                        {"outputs", d.until->outputs}, {"confidence", d.until->confidence},
+                        {"resamples", d.until->resamples}};
       break;
     default:
       out["n"] = d.n;
-      out["seed"] = d.seed;
-      out["ranges"] = ranges();
       break;
   }
+  out["seed"] = d.seed;
+  out["ranges"] = ranges();
   return out;
 }
 
@@ -1014,6 +1107,9 @@ const char* to_string(DesignType type) noexcept {
     case DesignType::kLhs: return "lhs";
     case DesignType::kSobol: return "sobol";
     case DesignType::kMorris: return "morris";
+    case DesignType::kEfast: return "efast";
+    case DesignType::kRbdFast: return "rbd_fast";
+    case DesignType::kDgsm: return "dgsm";
   }
   return "?";
 }
@@ -1078,10 +1174,18 @@ const std::vector<double>& StudySpec::unit_point(std::size_t index) const {
   return unit_->at(index);
 }
 
+std::size_t Design::runs_per_row() const noexcept {
+  switch (type) {
+    case DesignType::kSobol: return (second_order ? 2 * ranges.size() : ranges.size()) + 2;
+    case DesignType::kDgsm: return ranges.size() + 1;
+    default: return 1;
+  }
+}
+
 DesignPoint StudySpec::point(std::size_t index) const {
-  if (index >= run_count_)
+  if (index >= max_run_count_)
     throw std::out_of_range("point " + std::to_string(index) + " of a study with " +
-                            std::to_string(run_count_) + " runs");
+                            std::to_string(max_run_count_) + " runs");
   DesignPoint p;
   p.index = index;
   p.model = is_analytic() ? analytic_ : to_string(base_.model);

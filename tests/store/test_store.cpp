@@ -555,6 +555,14 @@ TEST_F(StoreTest, CreateGetAndSetStudyState) {
   EXPECT_FALSE(store.get_study("st-nope"));
   expect_store_error([&] { store.set_study_state("st-nope", StudyState::kRunning); },
                      {"st-nope", "no such study"});
+
+  // A study that grows (a Sobol design with "until"): more runs, never fewer.
+  store.extend_study(c.study.id, 24);
+  EXPECT_EQ(store.get_study(c.study.id)->total_runs, 24);
+  EXPECT_EQ(store.count_runs(c.study.id).total, 24);
+  expect_store_error([&] { store.extend_study(c.study.id, 12); }, {c.study.id, "fewer than the 24"});
+  EXPECT_EQ(store.get_study(c.study.id)->total_runs, 24);
+  expect_store_error([&] { store.extend_study("st-nope", 30); }, {"st-nope", "no such study"});
 }
 
 TEST_F(StoreTest, CreateStudyRejectsDuplicateIdAndBadSpec) {

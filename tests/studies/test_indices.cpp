@@ -17,6 +17,7 @@
 #include "stickslip/studies/runner.h"
 #include "stickslip/studies/sensitivity.h"
 
+#include "support/study_run.h"
 #include "support/temp_dir.h"
 
 namespace {
@@ -31,25 +32,11 @@ struct TempDir : stickslip::testing::TempDir {
   TempDir() : stickslip::testing::TempDir("stickslip-indices") {}
 };
 
-StudySpec parse_ok(const std::string& text) {
-  ParseResult r = parse_study(text);
-  if (!r.ok()) throw std::runtime_error("spec does not parse: " + to_string(r.errors));
-  return std::move(*r.spec);
-}
+using stickslip::testing::parse_ok;
 
 // Creates the study and runs it to completion with 2 threads; returns its id.
 std::string run(const fs::path& db, const StudySpec& spec) {
-  std::string id;
-  {
-    store::Store store = store::Store::open(db);
-    id = create_or_find_study(store, spec).id;
-  }
-  RunnerOptions opt;
-  opt.threads = 2;
-  opt.writer.max_batch = 4096;  // analytic runs are cheap: few, large transactions
-  const RunSummary sum = run_study(db, id, spec, opt);
-  EXPECT_EQ(sum.outcome, RunOutcome::kCompleted) << sum.error;
-  return id;
+  return stickslip::testing::run_to_end(db, spec).id;
 }
 
 StudyIndices indices(const fs::path& db, const std::string& id,
@@ -57,6 +44,17 @@ StudyIndices indices(const fs::path& db, const std::string& id,
   store::Store store = store::Store::open(db, store::Store::Mode::kReadOnly);
   return compute_indices(store, id, outputs, opt);
 }
+
+// The S1 / ST of a Sobol result, under the names of the exact values' struct.
+struct SobolView {
+  explicit SobolView(const ss::MethodIndices& m)
+      : S1(m.find("S1")->value), ST(m.find("ST")->value), S1_ci(m.find("S1")->ci),
+        ST_ci(m.find("ST")->ci) {}
+  const std::vector<double>& S1;
+  const std::vector<double>& ST;
+  const std::vector<ss::Interval>& S1_ci;
+  const std::vector<ss::Interval>& ST_ci;
+};
 
 bool covers(const ss::Interval& i, double v) { return i.lo <= v && v <= i.hi; }
 
@@ -69,15 +67,16 @@ TEST(IndicesEndToEnd, IshigamiN10000) {
   const StudyIndices r = indices(dir / "s.db", id);
   ASSERT_EQ(r.outputs.size(), 1u);
   const OutputIndices& y = r.outputs[0];
-  ASSERT_TRUE(y.valid) << y.reason;
-  ASSERT_TRUE(y.sobol.has_value());
+  ASSERT_TRUE(y.valid()) << y.reason;
+  ASSERT_TRUE(y.indices.has_value());
+  const SobolView sv(*y.indices);
   EXPECT_EQ(r.parameters, (std::vector<std::string>{"x1", "x2", "x3"}));
   EXPECT_EQ(r.stored_runs, 50000);
   EXPECT_EQ(r.failed_runs, 0);
   const double s1[] = {0.3139, 0.4424, 0.0}, st[] = {0.5576, 0.4424, 0.2437};
   for (int i = 0; i < 3; ++i) {
-    EXPECT_NEAR(y.sobol->S1[i], s1[i], 0.03) << "S1 x" << i + 1;
-    EXPECT_NEAR(y.sobol->ST[i], st[i], 0.03) << "ST x" << i + 1;
+    EXPECT_NEAR(sv.S1[i], s1[i], 0.03) << "S1 x" << i + 1;
+    EXPECT_NEAR(sv.ST[i], st[i], 0.03) << "ST x" << i + 1;
   }
   // The Ishigami variance is a^2/8 + b pi^4/5 + b^2 pi^8/18 + 1/2 = 13.845 for a = 7, b = 0.1.
   EXPECT_NEAR(y.variance, 13.845, 0.5);
@@ -92,7 +91,7 @@ TEST(IndicesEndToEnd, SobolGN4096) {
   const std::string id = run(dir / "s.db", spec);
   const StudyIndices r = indices(dir / "s.db", id, {"y"});
   ASSERT_TRUE(r.valid());
-  const auto& s = *r.outputs[0].sobol;
+  const SobolView s(*r.outputs[0].indices);
   const double s1[] = {0.000276, 0.010195, 0.765743, 0.191436, 0.000179, 0.001490};
   for (int i = 0; i < 6; ++i) EXPECT_NEAR(s.S1[i], s1[i], 0.01) << "S1 x" << i + 1;
   const auto exact = ss::sobol_g_exact({78, 12, 0.5, 2, 97, 33});
@@ -115,7 +114,7 @@ TEST(IndicesEndToEnd, IshigamiCoverage20Seeds) {
     opt.seed = 7000 + static_cast<std::uint64_t>(seed);
     const StudyIndices r = indices(dir / "cov.db", id, {}, opt);
     ASSERT_TRUE(r.valid());
-    const auto& s = *r.outputs[0].sobol;
+    const SobolView s(*r.outputs[0].indices);
     for (int i = 0; i < 3; ++i) {
       s1_hits[i] += covers(s.S1_ci[i], exact.S1[i]);
       st_hits[i] += covers(s.ST_ci[i], exact.ST[i]);
@@ -133,33 +132,39 @@ TEST(IndicesEndToEnd, IshigamiCoverage20Seeds) {
 }
 
 // Stage 1 (still base) cannot depend on the stage-2 vibration, so over a Sobol design of stage-2
-// v_a and f its amplitude and mean force are exactly constant: every index must be 0, and the
-// stage-2 outputs must not be (the vibration does matter there).
-TEST(IndicesEndToEnd, ConstantOutputGivesZeros) {
+// v_a and f its amplitude and mean force are exactly constant: their indices are undefined (0/0),
+// said with the reason and never reported as zeros; the stage-2 outputs have indices (the
+// vibration does matter there).
+TEST(IndicesEndToEnd, ConstantOutputIsUndefinedNotZero) {
   TempDir dir;
   const StudySpec spec = parse_ok(R"({"name": "const", "base": {"model": "dahl"},
       "stages": [{"duration": 1.2}, {"duration": 0.3}],
       "design": {"type": "sobol", "n": 8, "ranges": [
           {"name": "v_a", "min": 0.0005, "max": 0.004}, {"name": "f", "min": 500, "max": 1500}]}})");
   const std::string id = run(dir / "c.db", spec);
-  const StudyIndices r = indices(dir / "c.db", id);
-  ASSERT_EQ(r.outputs.size(), 5u);  // 2 stages x (amplitude, mean_force) + reduction_ratio
-  for (const auto& o : r.outputs) {
-    if (o.output.rfind("stage1.", 0) != 0) continue;
-    ASSERT_TRUE(o.valid) << o.output << ": " << o.reason;
+  const StudyIndices r = indices(dir / "c.db", id, {"stage1.amplitude", "stage1.mean_force",
+                                                    "stage2.amplitude", "stage2.mean_force"});
+  ASSERT_EQ(r.outputs.size(), 4u);
+  for (std::size_t k = 0; k < 2; ++k) {
+    const OutputIndices& o = r.outputs[k];
+    EXPECT_EQ(o.status, "undefined") << o.output;
+    EXPECT_FALSE(o.valid()) << o.output;  // no indices ...
+    EXPECT_TRUE(r.complete()) << o.output;  // ... but nothing failed
     EXPECT_EQ(o.variance, 0.0) << o.output;
-    for (std::size_t p = 0; p < 2; ++p) {
-      EXPECT_EQ(o.sobol->S1[p], 0.0) << o.output;
-      EXPECT_EQ(o.sobol->ST[p], 0.0) << o.output;
-      EXPECT_EQ(o.sobol->S1_ci[p].lo, 0.0);
-      EXPECT_EQ(o.sobol->ST_ci[p].hi, 0.0);
-    }
+    EXPECT_FALSE(o.indices.has_value());
+    EXPECT_NE(o.reason.find("constant"), std::string::npos) << o.reason;
+    EXPECT_NE(o.reason.find("0/0"), std::string::npos) << o.reason;
   }
   const OutputIndices& mean2 = r.outputs[3];
-  ASSERT_EQ(mean2.output, "stage2.mean_force");
-  ASSERT_TRUE(mean2.valid) << mean2.reason;
+  ASSERT_EQ(mean2.status, "ok") << mean2.reason;
   EXPECT_GT(mean2.variance, 0.0);
-  EXPECT_GT(std::max(mean2.sobol->ST[0], mean2.sobol->ST[1]), 0.1);
+  const SobolView s(*mean2.indices);
+  EXPECT_GT(std::max(s.ST[0], s.ST[1]), 0.1);
+  const auto j = indices_to_json(r);
+  EXPECT_EQ(j["outputs"][0]["status"], "undefined");
+  EXPECT_TRUE(j["outputs"][0]["indices"].empty());
+  EXPECT_EQ(j["heatmap"]["status"][0], "undefined");
+  EXPECT_TRUE(j["heatmap"]["value"][0][0].is_null());
 }
 
 // F_S in [8, 12] and F_C in [7, 10]: the points with F_S < F_C are invalid runs (the engine
@@ -182,8 +187,8 @@ TEST(IndicesEndToEnd, FailedRunsMakeIndicesInvalid) {
   EXPECT_FALSE(r.valid());
   EXPECT_EQ(r.failed_runs, static_cast<std::int64_t>(failed.size()));
   for (const auto& o : r.outputs) {
-    EXPECT_FALSE(o.valid);
-    EXPECT_FALSE(o.sobol.has_value());
+    EXPECT_FALSE(o.valid());
+    EXPECT_FALSE(o.indices.has_value());
     EXPECT_EQ(o.invalid_count, failed.size());
     EXPECT_NE(o.reason.find(std::to_string(failed.size()) + " failed runs"), std::string::npos)
         << o.reason;
@@ -221,7 +226,9 @@ TEST(IndicesEndToEnd, RaisedStaticFrictionKeepsIndicesValidAndIsCounted) {
   }
   ASSERT_GT(expected, 0) << "the design was meant to contain F_S < F_C points";
   const StudyIndices r = indices(dir / "r.db", id, {"stage1.mean_force"});
-  EXPECT_TRUE(r.valid()) << r.outputs.at(0).reason;
+  // No raised run is a failed one. (Within 0.3 s the body still sticks at every point, so the
+  // stage-1 mean force is the same everywhere: undefined, not invalid.)
+  EXPECT_TRUE(r.complete()) << r.outputs.at(0).reason;
   EXPECT_EQ(r.failed_runs, 0);
   EXPECT_EQ(r.F_S_raised_runs, expected);
   EXPECT_EQ(indices_to_json(r)["F_S_raised_runs"], expected);
@@ -284,9 +291,9 @@ TEST(IndicesEndToEnd, UndefinedRatioIsReportedPerPoint) {
       "design": {"type": "sobol", "n": 2, "ranges": [{"name": "v_a", "min": 0.001, "max": 0.002}]}})");
   const std::string id = run(dir / "r.db", spec);
   const StudyIndices r = indices(dir / "r.db", id, {"reduction_ratio", "stage1.amplitude"});
-  ASSERT_TRUE(r.outputs[1].valid) << r.outputs[1].reason;
+  ASSERT_EQ(r.outputs[1].status, "undefined") << r.outputs[1].reason;  // 0 everywhere
   ASSERT_EQ(r.outputs[1].mean, 0.0) << "premise: Dahl shows no stick-slip in stage 1";
-  EXPECT_FALSE(r.outputs[0].valid);
+  EXPECT_FALSE(r.outputs[0].valid());
   EXPECT_EQ(r.outputs[0].invalid_count, spec.run_count());
   EXPECT_EQ(r.outputs[0].invalid_points[0].status, "ok");
   EXPECT_NE(r.outputs[0].invalid_points[0].reason.find("stage 1 has no stick-slip"),
@@ -310,7 +317,11 @@ TEST(IndicesEndToEnd, MorrisMatchesDirectEstimator) {
     y.push_back(ss::ishigami(in));
   }
   const auto direct = ss::morris_indices(x, y, 40, 3);
-  const auto& m = *r.outputs[0].morris;
+  const auto& mi = *r.outputs[0].indices;
+  struct {
+    const std::vector<double>& mu_star;
+    const std::vector<double>& sigma;
+  } m{mi.find("mu_star")->value, mi.find("sigma")->value};
   for (int i = 0; i < 3; ++i) {
     EXPECT_NEAR(m.mu_star[i], direct.mu_star[i], 1e-9 * (1 + direct.mu_star[i]));
     EXPECT_NEAR(m.sigma[i], direct.sigma[i], 1e-9 * (1 + direct.sigma[i]));
@@ -345,6 +356,18 @@ TEST(IndicesEndToEnd, BadRequestsNameTheProblem) {
   IndicesOptions bad;
   bad.confidence = 1.5;
   EXPECT_THROW(compute_indices(store, iid, {}, bad), std::invalid_argument);
+  IndicesOptions efast;
+  efast.method = "efast";
+  try {
+    compute_indices(store, iid, {}, efast);
+    ADD_FAILURE() << "a sobol study accepted method efast";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("does not apply"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("'delta'"), std::string::npos) << e.what();
+  }
+  IndicesOptions unknown;
+  unknown.method = "fast99";
+  EXPECT_THROW(compute_indices(store, iid, {}, unknown), std::invalid_argument);
 }
 
 }  // namespace

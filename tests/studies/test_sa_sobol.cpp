@@ -57,25 +57,6 @@ TEST(SaltelliRows, RowLayoutIsNestedWhenTheBaseSampleGrows) {
     }
 }
 
-// On a first-order design in the block layout, sobol_analysis is the estimator of sensitivity.h,
-// bit for bit (same centring, sums and bootstrap draws), so stored studies keep their numbers.
-TEST(SobolAnalysis, EqualsSobolIndicesOnBlockDesigns) {
-  const std::size_t n = 512, d = 3;
-  const auto y = evaluate(ss::saltelli_design(n, d, 4), ishigami_unit);
-  const auto old = ss::sobol_indices(y, n, d, 0.9, 300, 11);
-  ss::BootstrapOptions o = bootstrap(300, 11);
-  o.confidence = 0.9;
-  const auto now = ss::sobol_analysis(y, shape(n, d, false, ss::SaltelliLayout::kBlocks), o);
-  ASSERT_TRUE(now.defined);
-  for (std::size_t i = 0; i < d; ++i) {
-    EXPECT_EQ(now.find("S1")->value[i], old.S1[i]);
-    EXPECT_EQ(now.find("ST")->value[i], old.ST[i]);
-    EXPECT_EQ(now.find("S1")->ci[i].lo, old.S1_ci[i].lo);
-    EXPECT_EQ(now.find("ST")->ci[i].hi, old.ST_ci[i].hi);
-  }
-  EXPECT_EQ(now.variance, old.variance);
-}
-
 TEST(SobolAnalysis, BothLayoutsGiveTheSameIndices) {
   const std::size_t n = 256, d = 3;
   const auto blocks = shape(n, d, true, ss::SaltelliLayout::kBlocks);

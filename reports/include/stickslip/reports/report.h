@@ -52,6 +52,7 @@ struct ReportEntry {
   std::filesystem::path spec_dir;    ///< directory a relative measured path resolves against
   std::shared_ptr<const studies::StudySpec> spec;
   std::vector<std::string> outputs;  ///< indices only; empty = default_outputs
+  std::string method;                ///< indices only; empty = the design's own
 };
 
 struct MapTolerance {

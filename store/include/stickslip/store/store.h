@@ -358,6 +358,10 @@ class Store {
   /// Throws StoreError for an unknown id.
   void set_study_state(const std::string& id, StudyState state,
                        const std::optional<std::string>& error = std::nullopt);
+  /// Grows a study to total_runs runs (a Sobol design with "until" that doubled its base
+  /// sample: the runs stored so far keep their design indices). Throws StoreError for an unknown
+  /// id or a total smaller than the current one.
+  void extend_study(const std::string& id, std::int64_t total_runs);
   std::optional<StudyRecord> find_by_idempotency_key(const std::string& key);
   /// The newest study of this name (ids sort in creation order), if any.
   std::optional<StudyRecord> find_newest_by_name(const std::string& name);

@@ -66,6 +66,9 @@ struct RunSummary {
   double wall_s = 0.0;           ///< wall time of this call [s]
   double store_s = 0.0;          ///< of which spent in the RunWriter (adds and commits) [s]
   double compute_s = 0.0;        ///< sum over runs of their wall times [s] (CPU-seconds)
+  /// A Sobol design with "until": the rule's verdict after each round, in order (the study grew
+  /// after every entry but the last, which says why it stopped).
+  std::vector<std::string> until;
 };
 
 /// Computes one run of a study (no store involved): parameters, status, metrics, optional trace
@@ -73,6 +76,11 @@ struct RunSummary {
 store::RunRecord compute_run(const StudySpec& spec, std::size_t design_index, const std::string& study_id,
                       const measured::MeasuredDataset* measured = nullptr);
 
+/// A Sobol design with "until" (spec.h): after all runs of the current base size are stored, the
+/// rule is evaluated on them (until_status, indices.h); while it says grow, the study is
+/// extended to the next base size (Store::extend_study: the stored runs keep their indices) and
+/// the new runs are computed, so the study stops by itself. Any runner can do the same with
+/// until_status and extend_study: the design points are a pure function of (spec, index).
 /// Runs the missing runs of study_id (which must exist in db with this spec) and sets the
 /// study's state: running while working, then succeeded (all runs stored, whatever their
 /// status), cancelled, running (stopped), or failed (unreadable measured data, a rejected run).

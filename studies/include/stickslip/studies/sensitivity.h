@@ -1,16 +1,14 @@
 #pragma once
-// Sensitivity analysis: sample designs (scrambled Sobol / Saltelli, Morris trajectories) and
-// estimators (Sobol first-order and total indices; Morris mu, mu*, sigma), with bootstrap
-// confidence intervals, plus the analytic test functions Ishigami and Sobol G.
+// Sensitivity analysis: sample designs (scrambled Sobol points, the Saltelli design, Morris
+// trajectories), the Morris estimator (mu, mu*, sigma) with bootstrap intervals, and the analytic
+// test functions Ishigami and Sobol G with their exact indices. The other methods (Sobol S1, ST,
+// S2; eFAST, RBD-FAST, delta, PAWN, DGSM) are in sa_*.h.
 //
 // All designs live on the unit hypercube [0,1]^d; studies map them onto parameter ranges.
 //
 // References:
 //  - Saltelli A. et al. (2010) Variance based sensitivity analysis of model output. Design and
-//    estimator for the total sensitivity index. Comput. Phys. Commun. 181:259-270.
-//    (first order: Saltelli 2010 eq. (b) in Table 2 with f(B) centred on the sample mean, as
-//    SALib does, which keeps its variance independent of the output's mean; total: Jansen 1999,
-//    Table 2 eq. (f)).
+//    estimator for the total sensitivity index. Comput. Phys. Commun. 181:259-270 (the design).
 //  - Morris M.D. (1991) Factorial sampling plans for preliminary computational experiments.
 //    Technometrics 33:161-174; Campolongo F. et al. (2007) for mu*.
 
@@ -31,7 +29,8 @@ Matrix sobol_points(std::size_t n, std::size_t d, std::uint64_t seed);
 ///   rows [0, n)                   : A
 ///   rows [n, 2n)                  : B
 ///   rows [(2+i) n, (3+i) n), i<d  : AB_i  (A with column i taken from B)
-/// A and B are the two halves of a 2d-dimensional scrambled Sobol sequence.
+/// A and B are the two halves of a 2d-dimensional scrambled Sobol sequence. (saltelli_rows of
+/// sa_sobol.h with the block layout and no second order.)
 Matrix saltelli_design(std::size_t n, std::size_t d, std::uint64_t seed);
 
 /// Morris design: r trajectories of (d + 1) points on a p-level grid (p even), step
@@ -42,19 +41,13 @@ struct Interval {
   double lo = 0.0, hi = 0.0;
 };
 
+/// Exact first-order and total indices of the analytic test functions (the estimators are in
+/// sa_sobol.h).
 struct SobolIndices {
   std::vector<double> S1, ST;          ///< per input
-  std::vector<Interval> S1_ci, ST_ci;  ///< bootstrap percentile intervals
-  double variance = 0.0;               ///< output variance estimate
+  std::vector<Interval> S1_ci, ST_ci;  ///< zero-width at the exact values
+  double variance = 0.0;               ///< output variance
 };
-
-/// y holds the outputs of saltelli_design(n, d, ...) in the same row order (n * (d + 2) values).
-/// confidence e.g. 0.95; bootstrap resamples the n base rows 'resamples' times with 'seed'.
-/// A constant output gives all indices 0 (and zero-width intervals).
-/// Throws std::invalid_argument on bad sizes/arguments or a non-finite y (e.g. a diverged run).
-SobolIndices sobol_indices(const std::vector<double>& y, std::size_t n, std::size_t d,
-                           double confidence = 0.95, std::size_t resamples = 1000,
-                           std::uint64_t seed = 1);
 
 struct MorrisIndices {
   std::vector<double> mu, mu_star, sigma;  ///< per input

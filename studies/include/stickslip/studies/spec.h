@@ -44,7 +44,7 @@ struct Limits {
   double max_dt = 1e-2;           ///< largest allowed dt and dt_max [s]
 };
 
-enum class DesignType { kGrid, kList, kRandom, kLhs, kSobol, kMorris };
+enum class DesignType { kGrid, kList, kRandom, kLhs, kSobol, kMorris, kEfast, kRbdFast, kDgsm };
 
 /// What a run with F_S < F_C does (spec field "F_S_below_F_C"). kFail (default): config_for
 /// throws, so the run is stored as invalid. kRaiseToFc: the run uses F_S = F_C (a flat Stribeck
@@ -91,15 +91,36 @@ struct ListPoint {
   std::vector<std::pair<std::string, double>> values;  ///< sorted by name
 };
 
+/// A Sobol design's "until" rule: after its runs, the runner doubles the base sample (up to
+/// n_max) while the widest total-index (ST) interval of the listed outputs exceeds max_st_width.
+struct SobolUntil {
+  double max_st_width = 0.1;         ///< widest allowed ST interval width [-]
+  std::size_t n_max = 0;             ///< largest base sample size N
+  std::vector<std::string> outputs;  ///< outputs judged; empty: the default outputs
+  double confidence = 0.95;          ///< interval level of the criterion
+  std::size_t resamples = 1000;      ///< bootstrap resamples of the criterion (seed 1)
+};
+
 struct Design {
   DesignType type = DesignType::kList;
   std::vector<Axis> axes;          ///< grid
   std::vector<ListPoint> points;   ///< list
-  std::vector<Range> ranges;       ///< random, lhs, sobol, morris
-  std::size_t n = 0;               ///< random / lhs: runs; sobol: base sample size
+  std::vector<Range> ranges;       ///< random, lhs, sobol, morris, efast, rbd_fast, dgsm
+  /// random / lhs / rbd_fast: runs; sobol / dgsm: base sample size; efast: points per curve
+  std::size_t n = 0;
   std::size_t trajectories = 0;    ///< morris: r
   std::size_t levels = 0;          ///< morris: p
-  std::uint64_t seed = 1;          ///< random, lhs, sobol, morris
+  std::uint64_t seed = 1;          ///< every sampled design
+  bool second_order = false;       ///< sobol: BA blocks too (S2): n (2d + 2) runs
+  std::optional<SobolUntil> until; ///< sobol: grow until the ST intervals are narrow enough
+  std::size_t harmonics = 4;       ///< efast: interference factor M
+  std::size_t replicates = 4;      ///< efast: random-phase replicates
+  double step = 0.01;              ///< dgsm: finite-difference step on the unit cube
+  /// Sobol designs with second order or "until" lay their runs out base row by base row, so that
+  /// the design can grow; plain ones keep the block layout of studies stored before (sa_sobol.h).
+  bool sobol_rows_layout() const noexcept { return second_order || until.has_value(); }
+  /// Runs per base row (sobol: d + 2 or 2d + 2; dgsm: d + 1; others 1).
+  std::size_t runs_per_row() const noexcept;
 };
 
 class SpecBuilder;
@@ -120,8 +141,12 @@ class StudySpec {
   /// Trace sample rate [Hz]; 0 = no traces.
   double trace_rate() const noexcept { return base_.trace.rate; }
 
+  /// Runs of the design as written (a Sobol design with "until": its first n base rows).
   std::size_t run_count() const noexcept { return run_count_; }
-  /// Run 'index' (< run_count(), else std::out_of_range). O(axes) time, no stored point list.
+  /// Runs the design may grow to: n_max base rows for a Sobol design with "until", else
+  /// run_count(). Design points exist for every index below it.
+  std::size_t max_run_count() const noexcept { return max_run_count_; }
+  /// Run 'index' (< max_run_count(), else std::out_of_range). O(axes) time, no stored point list.
   DesignPoint point(std::size_t index) const;
   /// Names of the design variables in design order ("model" and the derived "v_a" excluded);
   /// for sampled designs these are the columns of unit_point().
@@ -167,6 +192,7 @@ class StudySpec {
   std::optional<std::string> measured_;
   FsBelowFc fs_below_fc_ = FsBelowFc::kFail;
   std::size_t run_count_ = 0;
+  std::size_t max_run_count_ = 0;
   std::string analytic_;                // "" for friction models
   std::vector<double> analytic_a_;      // sobol_g: a_i; ishigami: {a}
   double analytic_b_ = 0.1;             // ishigami: b
