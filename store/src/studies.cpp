@@ -92,9 +92,10 @@ std::vector<StudyRecord> Store::list_studies(std::size_t page_size, const std::s
 }
 
 void Store::extend_study(const std::string& id, std::int64_t total_runs) {
-  Statement st(impl_->conn,
-               "UPDATE studies SET total_runs = ?1 WHERE id = ?2 AND total_runs <= ?1",
-               "extending study " + id);
+  detail::Statement st(impl_->conn,
+                       "UPDATE jobs SET progress_total = ?1 "
+                       "WHERE id = ?2 AND kind = 'study' AND progress_total <= ?1",
+                       "extending study " + id);
   st.bind_int(1, total_runs).bind_text(2, id).run();
   if (impl_->conn.changes() > 0) return;
   const auto study = get_study(id);
