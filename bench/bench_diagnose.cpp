@@ -7,6 +7,8 @@
 #include <iostream>
 #include <string>
 
+#include <CLI/CLI.hpp>
+
 #include "stickslip/diagnosis/diagnose.h"
 #include "stickslip/measured/measured.h"
 #include "stickslip/measured/synth.h"
@@ -17,11 +19,11 @@ using namespace stickslip::diagnosis;
 int main(int argc, char** argv) {
   // --via-csv DIR: write the dataset as manifest + CSV files (9 significant digits) and diagnose
   // what loads back, as `stickslip synth` + `stickslip diagnose` do.
-  const std::string via_csv = argc == 3 && std::string(argv[1]) == "--via-csv" ? argv[2] : "";
-  if (argc > 1 && via_csv.empty()) {
-    std::fprintf(stderr, "usage: bench_diagnose [--via-csv DIR]\n");
-    return 2;
-  }
+  std::string via_csv;
+  CLI::App app{"Diagnosis speed on the seed's 3 x 20 s conditions"};
+  app.add_option("--via-csv", via_csv, "write the dataset to DIR and diagnose what loads back")
+      ->type_name("DIR");
+  CLI11_PARSE(app, argc, argv);
   measured::SynthOptions o;
   o.model = engine::SimConfig::seed(engine::ModelKind::kLuGre, 0.0);
   o.model.extension.kind = engine::ExtensionKind::kViscous;

@@ -11,10 +11,11 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
-#include <cstring>
 #include <map>
 #include <string>
 #include <vector>
+
+#include <CLI/CLI.hpp>
 
 #include "stickslip/engine/simulate.h"
 #include "stickslip/diagnosis/diagnose_suite.h"
@@ -27,32 +28,34 @@ int main(int argc, char** argv) {
   bool verbose = false;
   int seeds = 3, first = 0;  // seeds 1000 + first ... 1000 + first + seeds - 1
   std::vector<std::string> only;
-  for (int i = 1; i < argc; ++i) {
-    if (!std::strcmp(argv[i], "--full")) family = diagnosis::SuiteDatasets::kFull;
-    else if (!std::strcmp(argv[i], "--seed-conditions")) family = diagnosis::SuiteDatasets::kSeed;
-    else if (!std::strcmp(argv[i], "--verbose")) verbose = true;
-    else if (!std::strcmp(argv[i], "--time-sim")) {  // cost of one fitting simulation per v_a
-      for (double rtol : {1e-5, 1e-4, 1e-3})
-        for (double va : {0.0, 1.5e-3, 5e-3}) {
-          engine::SimConfig c = engine::SimConfig::seed(engine::ModelKind::kLuGre, va);
-          c.stages = {engine::Stage{3.5, 0.0, 1500}, engine::Stage{2.5, va, 1500}};
-          c.integrator.rtol = c.integrator.atol = rtol;
-          c.trace.rate = 4000;
-          const auto t0 = std::chrono::steady_clock::now();
-          const engine::SimResult r = engine::simulate(c);
-          std::printf("rtol %g va %g: %.3f s, %zu trace samples\n", rtol, va,
-                      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(),
-                      r.trace.size());
-        }
-      return 0;
-    }
-    else if (!std::strcmp(argv[i], "--seeds") && i + 1 < argc) seeds = std::atoi(argv[++i]);
-    else if (!std::strcmp(argv[i], "--first-seed") && i + 1 < argc) first = std::atoi(argv[++i]);
-    else if (!std::strcmp(argv[i], "--case") && i + 1 < argc) only.push_back(argv[++i]);
-    else {
-      std::fprintf(stderr, "usage: diagnose_suite [--full | --seed-conditions] [--verbose] [--seeds N] [--first-seed K] [--case NAME]...\n");
-      return 2;
-    }
+  bool full = false, seed_conditions = false, time_sim = false;
+  CLI::App app{"The hidden-effect suite as a table: named causes and the confusion table"};
+  auto* full_flag = app.add_flag("--full", full, "the full datasets (3 runs x 7 s at 2 kHz, every base model)");
+  app.add_flag("--seed-conditions", seed_conditions,
+               "the seed's conditions for every case (3 runs x 20 s, LuGre base)")
+      ->excludes(full_flag);
+  app.add_flag("--verbose", verbose, "print every candidate of every diagnosis");
+  app.add_flag("--time-sim", time_sim, "only time one fitting simulation per v_a and rtol");
+  app.add_option("--seeds", seeds, "number of seeds")->type_name("N");
+  app.add_option("--first-seed", first, "seeds 1000 + K ...")->type_name("K");
+  app.add_option("--case", only, "only this case (repeatable)")->type_name("NAME");
+  CLI11_PARSE(app, argc, argv);
+  if (full) family = diagnosis::SuiteDatasets::kFull;
+  if (seed_conditions) family = diagnosis::SuiteDatasets::kSeed;
+  if (time_sim) {  // cost of one fitting simulation per v_a
+    for (double rtol : {1e-5, 1e-4, 1e-3})
+      for (double va : {0.0, 1.5e-3, 5e-3}) {
+        engine::SimConfig c = engine::SimConfig::seed(engine::ModelKind::kLuGre, va);
+        c.stages = {engine::Stage{3.5, 0.0, 1500}, engine::Stage{2.5, va, 1500}};
+        c.integrator.rtol = c.integrator.atol = rtol;
+        c.trace.rate = 4000;
+        const auto t0 = std::chrono::steady_clock::now();
+        const engine::SimResult r = engine::simulate(c);
+        std::printf("rtol %g va %g: %.3f s, %zu trace samples\n", rtol, va,
+                    std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(),
+                    r.trace.size());
+      }
+    return 0;
   }
   const auto cases = diagnosis::hidden_effect_cases();
   std::vector<std::string> causes = {"none"};

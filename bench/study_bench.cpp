@@ -13,13 +13,13 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
 #include <unistd.h>
 
+#include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
 #include "stickslip/studies/runner.h"
@@ -148,15 +148,11 @@ void convergence(const fs::path& tmp) {
 
 int main(int argc, char** argv) {
   bool map = true, mem = true, conv = true;
-  for (int i = 1; i < argc; ++i) {
-    if (!std::strcmp(argv[i], "--skip-map")) map = false;
-    else if (!std::strcmp(argv[i], "--skip-memory")) mem = false;
-    else if (!std::strcmp(argv[i], "--skip-convergence")) conv = false;
-    else {
-      std::fprintf(stderr, "usage: study_bench [--skip-map] [--skip-memory] [--skip-convergence]\n");
-      return 2;
-    }
-  }
+  CLI::App app{"Study benchmarks: the paper map, memory, convergence"};
+  app.add_flag("!--skip-map", map, "skip the paper map");
+  app.add_flag("!--skip-memory", mem, "skip the memory measurement");
+  app.add_flag("!--skip-convergence", conv, "skip the convergence table");
+  CLI11_PARSE(app, argc, argv);
   const fs::path tmp = fs::temp_directory_path() / ("stickslip-bench-" + std::to_string(getpid()));
   fs::create_directories(tmp);
   if (mem) memory(tmp);  // first, so the peak RSS is not inflated by the larger studies

@@ -24,10 +24,11 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <cstring>
 #include <fstream>
 #include <string>
 #include <vector>
+
+#include <CLI/CLI.hpp>
 
 #include "stickslip/engine/params.h"
 #include "stickslip/engine/simulate.h"
@@ -111,30 +112,21 @@ int main(int argc, char** argv) {
   bool rk4_rows = true;
   std::vector<double> rtols = {1e-4, 1e-5, 1e-6, 1e-7, 1e-8};
   double dt_max = 0.0;  // 0: the IntegratorOptions default
-  for (int i = 1; i < argc; ++i) {
-    if (std::strcmp(argv[i], "--quick") == 0) {
-      quick = true;
-    } else if (std::strcmp(argv[i], "--only") == 0 && i + 1 < argc) {
-      only = argv[++i];
-    } else if (std::strcmp(argv[i], "--ref-cache") == 0 && i + 1 < argc) {
-      cache_dir = argv[++i];
-    } else if (std::strcmp(argv[i], "--rtols") == 0 && i + 1 < argc) {
-      rtols.clear();
-      for (char* tok = std::strtok(argv[++i], ","); tok; tok = std::strtok(nullptr, ","))
-        rtols.push_back(std::atof(tok));
-    } else if (std::strcmp(argv[i], "--dt-max") == 0 && i + 1 < argc) {
-      dt_max = std::atof(argv[++i]);
-    } else if (std::strcmp(argv[i], "--no-rk4") == 0) {
-      rk4_rows = false;
-    } else if (std::strcmp(argv[i], "--reps") == 0 && i + 1 < argc) {
-      reps = std::max(1, std::atoi(argv[++i]));
-    } else {
-      std::fprintf(stderr,
-                   "usage: %s [--quick] [--only MODEL[:V_A_MM_S]] [--ref-cache DIR] [--reps N] [--no-rk4] [--rtols A,B,...] [--dt-max S]\n",
-                   argv[0]);
-      return 2;
-    }
-  }
+  CLI::App app{"Work-precision table of the engine's integrators"};
+  app.add_flag("--quick", quick, "2 s + 2 s runs, reference dt = 5e-7");
+  app.add_option("--only", only, "run only this model (and v_a in mm/s), e.g. lugre:4")
+      ->type_name("MODEL[:V_A_MM_S]");
+  app.add_option("--ref-cache", cache_dir, "store/load the reference traces in DIR")
+      ->type_name("DIR");
+  app.add_option("--reps", reps, "time each run N times and report the fastest")->type_name("N");
+  app.add_flag("!--no-rk4", rk4_rows, "skip the fixed-step RK4 rows (adaptive only)");
+  app.add_option("--rtols", rtols, "rtol values of the adaptive rows (atol = 10 rtol [N])")
+      ->delimiter(',')
+      ->type_name("A,B,...");
+  app.add_option("--dt-max", dt_max, "largest adaptive step [s] (default: IntegratorOptions')")
+      ->type_name("S");
+  CLI11_PARSE(app, argc, argv);
+  reps = std::max(1, reps);
   const double stage_dur = quick ? 2.0 : 10.0;
   const double ref_dt = quick ? 5e-7 : 1e-7;
 
