@@ -1,10 +1,10 @@
 // diagnosis.json, the stdout summary and the gnuplot plots of a Diagnosis.
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
 #include <fstream>
 #include <sstream>
 
+#include "stickslip/common/gnuplot.h"
 #include "stickslip/common/json_number.h"
 #include "stickslip/diagnosis/diagnose.h"
 #include "stickslip/diagnosis/diagnosis_schema_data.h"
@@ -73,13 +73,6 @@ nlohmann::json holdout_stages_json(const RunHoldout& h) {
 std::string gp_str(const std::string& s) {
   std::string out = "'";
   for (char c : s) out += c == '\'' ? std::string("''") : std::string(1, c);
-  return out + "'";
-}
-
-/// s as a single-quoted POSIX shell word.
-std::string shell_word(const std::string& s) {
-  std::string out = "'";
-  for (char c : s) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
   return out + "'";
 }
 
@@ -363,17 +356,20 @@ std::vector<std::string> write_report(const Diagnosis& d, const std::filesystem:
   gp << "unset multiplot\nunset title\nunset logscale x\n";
   gp.close();
   files.push_back((dir / "plots.gp").string());
-  if (std::system("command -v gnuplot >/dev/null 2>&1") == 0) {
-    const std::string cmd = "cd " + shell_word(dir.string()) + " && gnuplot plots.gp > gnuplot.log 2>&1";
-    if (std::system(cmd.c_str()) == 0) {
-      for (std::size_t k = 0; k < d.series.size(); ++k)
-        files.push_back((dir / ("run" + std::to_string(k + 1) + ".png")).string());
-      files.push_back((dir / "evidence.png").string());
-    } else {
-      files.push_back("plots failed: see " + (dir / "gnuplot.log").string());
-    }
-  } else {
+  common::GnuplotCall call;
+  call.script = "plots.gp";
+  call.workdir = dir;
+  call.log = dir / "gnuplot.log";
+  call.log_stdout = true;
+  const int status = common::run_gnuplot(call);
+  if (status == 0) {
+    for (std::size_t k = 0; k < d.series.size(); ++k)
+      files.push_back((dir / ("run" + std::to_string(k + 1) + ".png")).string());
+    files.push_back((dir / "evidence.png").string());
+  } else if (status == common::kGnuplotNotFound) {
     files.push_back("plots skipped: gnuplot not found (run gnuplot plots.gp in the directory)");
+  } else {
+    files.push_back("plots failed: see " + (dir / "gnuplot.log").string());
   }
   return files;
 }

@@ -2,11 +2,6 @@
 // figure writer and the categorical heat map.
 #include "report_plot.h"
 
-#include <sys/wait.h>
-#include <unistd.h>
-
-#include <cerrno>
-
 #include <boost/archive/iterators/base64_from_binary.hpp>
 #include <boost/archive/iterators/transform_width.hpp>
 #include <cmath>
@@ -14,6 +9,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "stickslip/common/gnuplot.h"
 
 namespace stickslip::reports::detail {
 
@@ -30,28 +26,21 @@ std::string base64(const std::string& bytes) {
   return out;
 }
 
-// Runs gnuplot on a script file (no shell: fork + execvp); stderr goes to a file that is quoted
-// in the error when gnuplot fails.
+// Runs gnuplot on a script file (common::run_gnuplot: no shell); stderr goes to a file that is
+// quoted in the error when gnuplot fails.
 void run_gnuplot(const std::string& gnuplot, const fs::path& script) {
   const fs::path err = script.string() + ".stderr";
-  const pid_t pid = fork();
-  if (pid < 0) throw std::runtime_error("cannot start gnuplot: fork failed");
-  if (pid == 0) {
-    if (FILE* f = std::freopen(err.c_str(), "w", stderr); f == nullptr) _exit(126);
-    const std::string s = script.string();
-    char* argv[] = {const_cast<char*>(gnuplot.c_str()), const_cast<char*>(s.c_str()), nullptr};
-    execvp(argv[0], argv);
-    _exit(127);
-  }
-  int status = 0;
-  while (waitpid(pid, &status, 0) < 0)
-    if (errno != EINTR) throw std::runtime_error("waitpid on gnuplot failed");
+  common::GnuplotCall call;
+  call.executable = gnuplot;
+  call.script = script;
+  call.log = err;
+  const int status = common::run_gnuplot(call);
   std::ifstream in(err);
   std::stringstream msg;
   msg << in.rdbuf();
-  if (!WIFEXITED(status) || WEXITSTATUS(status) != 0)
+  if (status != 0)
     throw std::runtime_error("gnuplot failed on " + script.string() +
-                             (WIFEXITED(status) && WEXITSTATUS(status) == 127
+                             (status == common::kGnuplotNotFound
                                   ? " ('" + gnuplot + "' not found; install gnuplot-nox)"
                                   : "") +
                              ": " + msg.str());
