@@ -62,7 +62,13 @@ std::string display_index(double value, const Interval* ci, const char* format) 
 
 std::string display_interval(const Interval& ci, const char* format) {
   auto end = [&](double v) { return std::isfinite(v) ? printf_double(format, v) : "\u2013"; };
-  return "[" + end(ci.lo) + ", " + end(ci.hi) + "]";
+  // Appended piece by piece: "[" + std::string&& makes GCC 12 report a false -Wrestrict (bug 105329).
+  std::string out = "[";
+  out += end(ci.lo);
+  out += ", ";
+  out += end(ci.hi);
+  out += ']';
+  return out;
 }
 
 }  // namespace stickslip::studies::sensitivity
