@@ -124,163 +124,169 @@ std::string read_file(const std::string& path) {
   return ss.str();
 }
 
+void add_submit_command(CLI::App& app, int& exit_code) {
+  auto o = std::make_shared<RemoteOptions>();
+  auto spec = std::make_shared<std::string>();
+  auto key = std::make_shared<std::string>();
+  auto wait = std::make_shared<bool>(false);
+  auto* cmd = app.add_subcommand("submit", "Submit a study spec to the server; prints its id");
+  cmd->add_option("SPEC", *spec, "study spec (JSON, schemas/study.schema.json)")->required();
+  cmd->add_flag("--wait", *wait, "wait until the study finishes (exit 4 if it fails)");
+  cmd->add_option("--idempotency-key", *key, "retry-safe submission key");
+  add_common(cmd, *o);
+  cmd->callback([=, &exit_code] {
+    guarded(exit_code, [&]() -> int {
+      Remote remote = make_remote(*o);
+      const json s = remote.submit(read_file(*spec), *key);
+      const std::string id = s.value("id", "");
+      if (!*wait) {
+        if (o->json_output) std::cout << s.dump(2) << "\n";
+        else std::cout << id << "\n";
+        return kOk;
+      }
+      if (!o->json_output) std::cout << id << "\n" << std::flush;
+      const json done = wait_for(remote, id, 0.5, false);
+      if (o->json_output) std::cout << done.dump(2) << "\n";
+      else print_study(done);
+      return final_code(done);
+    });
+  });
+}
+
+void add_status_command(CLI::App& app, int& exit_code) {
+  auto o = std::make_shared<RemoteOptions>();
+  auto id = std::make_shared<std::string>();
+  auto* cmd = app.add_subcommand("status", "Show a study's state and progress");
+  cmd->add_option("ID", *id, "study id")->required();
+  add_common(cmd, *o);
+  cmd->callback([=, &exit_code] {
+    guarded(exit_code, [&]() -> int {
+      Remote remote = make_remote(*o);
+      const json s = remote.study(*id);
+      if (o->json_output) std::cout << s.dump(2) << "\n";
+      else print_study(s);
+      return kOk;
+    });
+  });
+}
+
+void add_wait_command(CLI::App& app, int& exit_code) {
+  auto o = std::make_shared<RemoteOptions>();
+  auto id = std::make_shared<std::string>();
+  auto interval = std::make_shared<double>(0.5);
+  auto* cmd = app.add_subcommand(
+      "wait", "Wait for a study to finish (progress bar on a terminal); exit 4 if it fails");
+  cmd->add_option("ID", *id, "study id")->required();
+  cmd->add_option("--interval", *interval, "polling interval [s]")
+      ->check(CLI::Range(0.05, 60.0))
+      ->capture_default_str();
+  add_common(cmd, *o);
+  cmd->callback([=, &exit_code] {
+    guarded(exit_code, [&]() -> int {
+      Remote remote = make_remote(*o);
+      const json s = wait_for(remote, *id, *interval, false);
+      if (o->json_output) std::cout << s.dump(2) << "\n";
+      else print_study(s);
+      return final_code(s);
+    });
+  });
+}
+
+void add_runs_command(CLI::App& app, int& exit_code) {
+  auto o = std::make_shared<RemoteOptions>();
+  auto id = std::make_shared<std::string>();
+  auto csv = std::make_shared<bool>(false);
+  auto out = std::make_shared<std::string>("-");
+  auto* cmd = app.add_subcommand("runs", "Print a study's run results");
+  cmd->add_option("ID", *id, "study id")->required();
+  cmd->add_flag("--csv", *csv, "CSV, one row per run and stage");
+  cmd->add_option("--out", *out, "output file, - for stdout")->capture_default_str();
+  add_common(cmd, *o);
+  cmd->callback([=, &exit_code] {
+    guarded(exit_code, [&]() -> int {
+      Remote remote = make_remote(*o);
+      if (*csv) {
+        write_output(*out, remote.csv(*id, "runs"));
+        return kOk;
+      }
+      const json runs = remote.runs_all(*id);
+      if (o->json_output) {
+        write_output(*out, runs.dump(2) + "\n");
+        return kOk;
+      }
+      std::ostringstream t;
+      char line[256];
+      std::snprintf(line, sizeof line, "%6s %-18s %10s %-9s %12s %12s  %s\n", "index", "model",
+                    "va/vd", "status", "amp s1 [N]", "amp s2 [N]", "error");
+      t << line;
+      for (const auto& r : runs) {
+        const auto& st = r["stages"];
+        std::snprintf(line, sizeof line, "%6lld %-18s %10s %-9s %12s %12s  %s\n",
+                      r.value("design_index", 0LL),
+                      r["model"].is_string() ? r["model"].get<std::string>().c_str() : "-",
+                      cell(r["va_over_vd"]).c_str(), r.value("status", "").c_str(),
+                      st.size() > 0 ? cell(st[0]["amplitude"]).c_str() : "-",
+                      st.size() > 1 ? cell(st[1]["amplitude"]).c_str() : "-",
+                      r["error"].is_string() ? r["error"].get<std::string>().c_str() : "");
+        t << line;
+      }
+      write_output(*out, t.str());
+      return kOk;
+    });
+  });
+}
+
+void add_cancel_command(CLI::App& app, int& exit_code) {
+  auto o = std::make_shared<RemoteOptions>();
+  auto id = std::make_shared<std::string>();
+  auto* cmd = app.add_subcommand("cancel", "Cancel a study (its finished runs are kept)");
+  cmd->add_option("ID", *id, "study id")->required();
+  add_common(cmd, *o);
+  cmd->callback([=, &exit_code] {
+    guarded(exit_code, [&]() -> int {
+      Remote remote = make_remote(*o);
+      const json s = remote.cancel(*id);
+      if (o->json_output) std::cout << s.dump(2) << "\n";
+      else
+        std::cout << *id << ": "
+                  << (s.value("state", "") == "cancelled" ? "cancelled"
+                                                          : "cancellation requested")
+                  << " (" << progress_text(s) << " kept)\n";
+      return kOk;
+    });
+  });
+}
+
+void add_list_command(CLI::App& app, int& exit_code) {
+  auto o = std::make_shared<RemoteOptions>();
+  auto* cmd = app.add_subcommand("list", "List the server's studies, oldest first");
+  add_common(cmd, *o);
+  cmd->callback([=, &exit_code] {
+    guarded(exit_code, [&]() -> int {
+      Remote remote = make_remote(*o);
+      const json all = remote.list_all();
+      if (o->json_output) {
+        std::cout << all.dump(2) << "\n";
+        return kOk;
+      }
+      for (const auto& s : all)
+        std::printf("%-24s %-10s %-20s %s\n", s.value("id", "").c_str(),
+                    s.value("state", "").c_str(), progress_text(s).c_str(),
+                    s.value("name", "").c_str());
+      return kOk;
+    });
+  });
+}
+
 }  // namespace
 
 void add_remote_commands(CLI::App& app, int& exit_code) {
-  // submit
-  {
-    auto o = std::make_shared<RemoteOptions>();
-    auto spec = std::make_shared<std::string>();
-    auto key = std::make_shared<std::string>();
-    auto wait = std::make_shared<bool>(false);
-    auto* cmd = app.add_subcommand("submit", "Submit a study spec to the server; prints its id");
-    cmd->add_option("SPEC", *spec, "study spec (JSON, schemas/study.schema.json)")->required();
-    cmd->add_flag("--wait", *wait, "wait until the study finishes (exit 4 if it fails)");
-    cmd->add_option("--idempotency-key", *key, "retry-safe submission key");
-    add_common(cmd, *o);
-    cmd->callback([=, &exit_code] {
-      guarded(exit_code, [&]() -> int {
-        Remote remote = make_remote(*o);
-        const json s = remote.submit(read_file(*spec), *key);
-        const std::string id = s.value("id", "");
-        if (!*wait) {
-          if (o->json_output) std::cout << s.dump(2) << "\n";
-          else std::cout << id << "\n";
-          return kOk;
-        }
-        if (!o->json_output) std::cout << id << "\n" << std::flush;
-        const json done = wait_for(remote, id, 0.5, false);
-        if (o->json_output) std::cout << done.dump(2) << "\n";
-        else print_study(done);
-        return final_code(done);
-      });
-    });
-  }
-  // status
-  {
-    auto o = std::make_shared<RemoteOptions>();
-    auto id = std::make_shared<std::string>();
-    auto* cmd = app.add_subcommand("status", "Show a study's state and progress");
-    cmd->add_option("ID", *id, "study id")->required();
-    add_common(cmd, *o);
-    cmd->callback([=, &exit_code] {
-      guarded(exit_code, [&]() -> int {
-        Remote remote = make_remote(*o);
-        const json s = remote.study(*id);
-        if (o->json_output) std::cout << s.dump(2) << "\n";
-        else print_study(s);
-        return kOk;
-      });
-    });
-  }
-  // wait
-  {
-    auto o = std::make_shared<RemoteOptions>();
-    auto id = std::make_shared<std::string>();
-    auto interval = std::make_shared<double>(0.5);
-    auto* cmd = app.add_subcommand(
-        "wait", "Wait for a study to finish (progress bar on a terminal); exit 4 if it fails");
-    cmd->add_option("ID", *id, "study id")->required();
-    cmd->add_option("--interval", *interval, "polling interval [s]")
-        ->check(CLI::Range(0.05, 60.0))
-        ->capture_default_str();
-    add_common(cmd, *o);
-    cmd->callback([=, &exit_code] {
-      guarded(exit_code, [&]() -> int {
-        Remote remote = make_remote(*o);
-        const json s = wait_for(remote, *id, *interval, false);
-        if (o->json_output) std::cout << s.dump(2) << "\n";
-        else print_study(s);
-        return final_code(s);
-      });
-    });
-  }
-  // runs
-  {
-    auto o = std::make_shared<RemoteOptions>();
-    auto id = std::make_shared<std::string>();
-    auto csv = std::make_shared<bool>(false);
-    auto out = std::make_shared<std::string>("-");
-    auto* cmd = app.add_subcommand("runs", "Print a study's run results");
-    cmd->add_option("ID", *id, "study id")->required();
-    cmd->add_flag("--csv", *csv, "CSV, one row per run and stage");
-    cmd->add_option("--out", *out, "output file, - for stdout")->capture_default_str();
-    add_common(cmd, *o);
-    cmd->callback([=, &exit_code] {
-      guarded(exit_code, [&]() -> int {
-        Remote remote = make_remote(*o);
-        if (*csv) {
-          write_output(*out, remote.csv(*id, "runs"));
-          return kOk;
-        }
-        const json runs = remote.runs_all(*id);
-        if (o->json_output) {
-          write_output(*out, runs.dump(2) + "\n");
-          return kOk;
-        }
-        std::ostringstream t;
-        char line[256];
-        std::snprintf(line, sizeof line, "%6s %-18s %10s %-9s %12s %12s  %s\n", "index", "model",
-                      "va/vd", "status", "amp s1 [N]", "amp s2 [N]", "error");
-        t << line;
-        for (const auto& r : runs) {
-          const auto& st = r["stages"];
-          std::snprintf(line, sizeof line, "%6lld %-18s %10s %-9s %12s %12s  %s\n",
-                        r.value("design_index", 0LL),
-                        r["model"].is_string() ? r["model"].get<std::string>().c_str() : "-",
-                        cell(r["va_over_vd"]).c_str(), r.value("status", "").c_str(),
-                        st.size() > 0 ? cell(st[0]["amplitude"]).c_str() : "-",
-                        st.size() > 1 ? cell(st[1]["amplitude"]).c_str() : "-",
-                        r["error"].is_string() ? r["error"].get<std::string>().c_str() : "");
-          t << line;
-        }
-        write_output(*out, t.str());
-        return kOk;
-      });
-    });
-  }
-  // cancel
-  {
-    auto o = std::make_shared<RemoteOptions>();
-    auto id = std::make_shared<std::string>();
-    auto* cmd = app.add_subcommand("cancel", "Cancel a study (its finished runs are kept)");
-    cmd->add_option("ID", *id, "study id")->required();
-    add_common(cmd, *o);
-    cmd->callback([=, &exit_code] {
-      guarded(exit_code, [&]() -> int {
-        Remote remote = make_remote(*o);
-        const json s = remote.cancel(*id);
-        if (o->json_output) std::cout << s.dump(2) << "\n";
-        else
-          std::cout << *id << ": "
-                    << (s.value("state", "") == "cancelled" ? "cancelled"
-                                                            : "cancellation requested")
-                    << " (" << progress_text(s) << " kept)\n";
-        return kOk;
-      });
-    });
-  }
-  // list
-  {
-    auto o = std::make_shared<RemoteOptions>();
-    auto* cmd = app.add_subcommand("list", "List the server's studies, oldest first");
-    add_common(cmd, *o);
-    cmd->callback([=, &exit_code] {
-      guarded(exit_code, [&]() -> int {
-        Remote remote = make_remote(*o);
-        const json all = remote.list_all();
-        if (o->json_output) {
-          std::cout << all.dump(2) << "\n";
-          return kOk;
-        }
-        for (const auto& s : all)
-          std::printf("%-24s %-10s %-20s %s\n", s.value("id", "").c_str(),
-                      s.value("state", "").c_str(), progress_text(s).c_str(),
-                      s.value("name", "").c_str());
-        return kOk;
-      });
-    });
-  }
+  add_submit_command(app, exit_code);
+  add_status_command(app, exit_code);
+  add_wait_command(app, exit_code);
+  add_runs_command(app, exit_code);
+  add_cancel_command(app, exit_code);
+  add_list_command(app, exit_code);
 }
 
 int remote_map(const std::string& server, const std::string& id, const std::string& format,
