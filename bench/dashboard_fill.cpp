@@ -9,6 +9,9 @@
 #include <fstream>
 #include <iostream>
 #include <sstream>
+#include <string>
+
+#include <CLI/CLI.hpp>
 
 #include "stickslip/common/json_schema.h"
 #include "stickslip/store/store.h"
@@ -21,11 +24,12 @@ using stickslip::studies::ParseResult;
 using stickslip::studies::StudySpec;
 
 int main(int argc, char** argv) {
-  if (argc != 3) {
-    std::cerr << "usage: dashboard_fill SPEC.json DB\n";
-    return 2;
-  }
-  std::ifstream in(argv[1]);
+  std::string spec_path, db;
+  CLI::App app{"Fills DB with one succeeded study of SPEC whose runs are made up; prints its id"};
+  app.add_option("SPEC", spec_path, "study spec (JSON)")->required()->check(CLI::ExistingFile);
+  app.add_option("DB", db, "the store to fill")->required();
+  CLI11_PARSE(app, argc, argv);
+  std::ifstream in(spec_path);
   std::stringstream text;
   text << in.rdbuf();
   const ParseResult parsed = parse_study(text.str());
@@ -34,7 +38,7 @@ int main(int argc, char** argv) {
     return 2;
   }
   const StudySpec& spec = *parsed.spec;
-  auto store = Store::open(argv[2]);
+  auto store = Store::open(db);
   NewStudy ns;
   ns.name = spec.name();
   ns.spec_json = spec.canonical_json();
@@ -45,7 +49,7 @@ int main(int argc, char** argv) {
   {
     WriterOptions wo;
     wo.max_batch = 5000;
-    auto writer = RunWriter::open(argv[2], wo);
+    auto writer = RunWriter::open(db, wo);
     for (std::size_t i = 0; i < spec.run_count(); ++i) {
       const DesignPoint p = spec.point(i);
       RunRecord r;

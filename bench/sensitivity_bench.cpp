@@ -14,11 +14,12 @@
 // Usage: sensitivity_bench [--rows K] [--threads T] [--full] [--skip-runs]
 #include <chrono>
 #include <cstdio>
-#include <cstring>
 #include <filesystem>
 #include <functional>
 #include <string>
 #include <unistd.h>
+
+#include <CLI/CLI.hpp>
 
 #include "stickslip/studies/runner.h"
 #include "stickslip/studies/sa_given.h"
@@ -144,16 +145,13 @@ int main(int argc, char** argv) {
   std::size_t rows = 32;
   int threads = 2;
   bool full = false, runs = true;
-  for (int i = 1; i < argc; ++i) {
-    if (!std::strcmp(argv[i], "--rows") && i + 1 < argc) rows = std::stoul(argv[++i]);
-    else if (!std::strcmp(argv[i], "--threads") && i + 1 < argc) threads = std::stoi(argv[++i]);
-    else if (!std::strcmp(argv[i], "--full")) full = true;
-    else if (!std::strcmp(argv[i], "--skip-runs")) runs = false;
-    else {
-      std::fprintf(stderr, "usage: sensitivity_bench [--rows K] [--threads T] [--full] [--skip-runs]\n");
-      return 2;
-    }
-  }
+  CLI::App app{"Sensitivity benchmark: runs/s of the issue's Sobol study, the estimators' time"};
+  app.add_option("--rows", rows, "base rows of the design timed with both integrators")
+      ->capture_default_str();
+  app.add_option("--threads", threads, "OpenMP threads of the runs")->capture_default_str();
+  app.add_flag("--full", full, "run all 40,960 runs (batched) and time the estimators on them");
+  app.add_flag("!--skip-runs", runs, "skip the runs/s comparison");
+  CLI11_PARSE(app, argc, argv);
   const fs::path tmp = fs::temp_directory_path() / ("stickslip-sa-bench-" + std::to_string(getpid()));
   fs::create_directories(tmp);
   if (runs) time_runs(tmp, rows, threads);
