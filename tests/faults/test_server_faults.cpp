@@ -1,0 +1,166 @@
+// I/O errors inside a real stickslipd: the fault VFS shim is preloaded into the server
+// (fault_vfs_preload.cpp) and armed with SIGUSR2 while a study and a diagnosis run.
+//  - A disk that fails every write (persistent): the worker pauses instead of looping (little CPU,
+//    few log lines), /healthz turns degraded, every confirmed run stays in the file, and when
+//    the disk works again (SIGUSR1) the jobs complete without a restart.
+//  - One failed write, fsync or lock at a chosen moment (transient): no job fails; all complete.
+// After each case the server is killed (-9) and the file checked against what the API
+// confirmed; a restart completes every job.
+//
+// These need the job worker of the jobs branch (issue 18 defects 2 and 3: backoff instead of a
+// hot loop, a store fault puts the job back instead of failing it); they are skipped until
+// store/writer_lock.h exists.
+#include <gtest/gtest.h>
+#include <signal.h>
+
+#include <chrono>
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+#include <thread>
+
+#include "faults/live.h"
+#include "support/temp_dir.h"
+
+#if __has_include("stickslip/store/writer_lock.h")
+constexpr bool kJobWorkerLanded = true;
+#else
+constexpr bool kJobWorkerLanded = false;
+#endif
+
+namespace stickslip {
+namespace {
+
+namespace fs = std::filesystem;
+using namespace std::chrono_literals;
+using testing::Daemon;
+using testing::Job;
+
+/// CPU time (user + system) a process has used so far [s].
+double cpu_seconds(pid_t pid) {
+  std::ifstream in("/proc/" + std::to_string(pid) + "/stat");
+  std::string stat((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  std::istringstream fields(stat.substr(stat.rfind(')') + 2));  // after "pid (comm) "
+  std::string f;
+  double ticks = 0;
+  for (int i = 3; i <= 15 && fields >> f; ++i)
+    if (i == 14 || i == 15) ticks += std::stod(f);
+  return ticks / static_cast<double>(sysconf(_SC_CLK_TCK));
+}
+
+std::size_t lines(const std::string& s) {
+  return static_cast<std::size_t>(std::count(s.begin(), s.end(), '\n'));
+}
+
+class ServerFaults : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    if (!kJobWorkerLanded)
+      GTEST_SKIP() << "pending issue 18 defects 2 and 3 (the jobs branch: store faults pause the "
+                      "worker and put the job back)";
+  }
+  fs::path write(const std::string& name, const std::string& text) {
+    const fs::path p = dir_ / name;
+    std::ofstream(p) << text;
+    return p;
+  }
+  std::vector<std::string> env(const std::string& plan) const {
+    return {std::string("LD_PRELOAD=") + STICKSLIP_FAULT_VFS_LIB, "STICKSLIP_FAULT_VFS=" + plan,
+            "STICKSLIP_FAULT_VFS_ARM=signal"};
+  }
+  std::vector<Job> submit(Daemon& d, const std::string& tag, bool with_diagnosis) {
+    std::vector<Job> jobs;
+    jobs.push_back(testing::make_job("studies", tag + "-study",
+                                     write(tag + ".json", testing::study_spec(tag, 40, 1.0))));
+    if (with_diagnosis)
+      jobs.push_back(testing::make_job("diagnoses", tag + "-diagnosis",
+                                       write(tag + "-d.json", testing::diagnosis_body(dir_ / tag))));
+    for (Job& job : jobs) testing::post_job(dir_.path(), d.url(), job);
+    return jobs;
+  }
+  /// Kills d, checks the file, restarts without faults and finishes every job.
+  void kill_check_and_finish(Daemon& d, std::vector<Job>& jobs) {
+    for (Job& job : jobs) testing::poll_job(dir_.path(), d.url(), job);
+    d.process().signal(SIGKILL);
+    ASSERT_EQ(d.process().wait(20s), 128 + SIGKILL);
+    testing::expect_jobs_kept(dir_ / "e2e.db", jobs, "after the kill");
+    Daemon again(dir_.path(), opts_);
+    ASSERT_TRUE(testing::wait_all_succeeded(dir_.path(), again.url(), jobs, 600s));
+    again.process().signal(SIGTERM);
+    EXPECT_EQ(again.process().wait(60s), 0);
+    testing::expect_jobs_kept(dir_ / "e2e.db", jobs, "at the end");
+  }
+
+  const std::vector<std::string> opts_ = {"--diagnosis-threads", "1", "--diagnosis-grace", "0"};
+  stickslip::testing::TempDir dir_{"stickslip-server-faults"};
+};
+
+TEST_F(ServerFaults, DiskFailingEveryWritePausesTheWorkerAndTheJobsCompleteWhenItRecovers) {
+  Daemon d(dir_.path(), opts_, env("write:1:persist"));
+  std::vector<Job> jobs = submit(d, "persistent", true);
+  const auto start = std::chrono::steady_clock::now();
+  while (jobs[0].done == 0 && std::chrono::steady_clock::now() - start < 120s)
+    testing::poll_job(dir_.path(), d.url(), jobs[0]);
+  ASSERT_GT(jobs[0].done, 0) << "the study did not start";
+  d.process().signal(SIGUSR2);  // the disk fails from now on
+  std::this_thread::sleep_for(1s);
+  const std::size_t log_before = lines(d.process().err());
+  const double cpu_before = cpu_seconds(d.process().pid());
+  std::this_thread::sleep_for(5s);
+  const double cpu = cpu_seconds(d.process().pid()) - cpu_before;
+  const std::size_t logged = lines(d.process().err()) - log_before;
+  // Issue 18 defect 2: a hot loop took 0.6 of a core and logged 3,300 lines a second.
+  EXPECT_LT(cpu, 1.0) << "CPU seconds in 5 s of a failing disk";
+  EXPECT_LT(logged, 50u) << "log lines in 5 s of a failing disk";
+  const testing::Curl health = testing::curl(dir_.path(), {d.url() + "/healthz"});
+  EXPECT_EQ(health.status, 503) << health.body;
+  EXPECT_NE(health.body.find("degraded"), std::string::npos) << health.body;
+  for (Job& job : jobs) {
+    const testing::Curl c =
+        testing::curl(dir_.path(), {d.url() + "/v1/" + job.collection + "/" + job.id});
+    const auto j = nlohmann::json::parse(c.body);
+    EXPECT_NE(j["state"], "failed") << c.body.substr(0, 300);
+    if (job.collection == "studies") {  // it was running: the store's error is recorded with it
+      EXPECT_TRUE(j.contains("error") && j["error"].is_string()) << c.body.substr(0, 300);
+    }
+  }
+  testing::expect_jobs_kept(dir_ / "e2e.db", jobs, "while the disk fails");
+  d.process().signal(SIGUSR1);  // the disk works again
+  EXPECT_TRUE(testing::wait_all_succeeded(dir_.path(), d.url(), jobs, 600s))
+      << "the jobs did not complete after the disk recovered";
+  EXPECT_EQ(testing::curl(dir_.path(), {d.url() + "/healthz"}).status, 200);
+  kill_check_and_finish(d, jobs);
+  std::printf("[faults] stickslipd, every write failing for 6 s: %.2f CPU s, %zu log lines in 5 s\n",
+              cpu, logged);
+}
+
+TEST_F(ServerFaults, OneFailedWriteSyncOrLockNeverFailsAJob) {
+  struct Plan {
+    const char* text;
+    bool diagnosis;
+  };
+  const Plan plans[] = {{"write:3", true}, {"write:40", false}, {"sync:1", false},
+                        {"lock:10", false}, {"write:2:13", false}};  // 13: SQLITE_FULL
+  int injected = 0;
+  for (const Plan& plan : plans) {
+    SCOPED_TRACE(plan.text);
+    for (const char* ext : {"", "-wal", "-shm", ".lock"})
+      fs::remove(dir_.path() / ("e2e.db" + std::string(ext)));
+    Daemon d(dir_.path(), opts_, env(plan.text));
+    std::vector<Job> jobs =
+        submit(d, "transient-" + std::to_string(injected), plan.diagnosis);
+    const auto start = std::chrono::steady_clock::now();
+    while (jobs[0].done == 0 && std::chrono::steady_clock::now() - start < 120s)
+      testing::poll_job(dir_.path(), d.url(), jobs[0]);
+    d.process().signal(SIGUSR2);  // the plan's call from now on fails once
+    ++injected;
+    ASSERT_TRUE(testing::wait_all_succeeded(dir_.path(), d.url(), jobs, 600s))
+        << "a job did not complete after one " << plan.text << " error";
+    kill_check_and_finish(d, jobs);
+    if (HasFailure()) return;
+  }
+  std::printf("[faults] stickslipd: %d single write/sync/lock errors, no job failed\n", injected);
+}
+
+}  // namespace
+}  // namespace stickslip
