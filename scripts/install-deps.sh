@@ -23,6 +23,7 @@ PACKAGES=(
   chromium chromium-driver # the dashboard's browser tests (tests/browser): headless Chromium
   python3-selenium         # ... driven through chromium-driver; run with /usr/bin/python3
   fonts-dejavu-core        # ... so the pages render with real glyphs in the screenshots
+  clang libfuzzer-14-dev   # the fuzz harnesses (tests/fuzz): libFuzzer and the sanitizers
 )
 
 missing=()
