@@ -23,7 +23,9 @@ PACKAGES=(
   chromium chromium-driver # the dashboard's browser tests (tests/browser): headless Chromium
   python3-selenium         # ... driven through chromium-driver; run with /usr/bin/python3
   fonts-dejavu-core        # ... so the pages render with real glyphs in the screenshots
-  clang libfuzzer-14-dev   # the fuzz harnesses (tests/fuzz): libFuzzer and the sanitizers
+  clang libfuzzer-14-dev   # the fuzz harnesses (tests/fuzz): clang and libFuzzer, and
+  libclang-rt-14-dev       # ... the runtimes of -fsanitize=fuzzer,address,undefined (only
+                           #     recommended by clang, and we install without recommends)
 )
 
 missing=()
