@@ -79,6 +79,7 @@ struct Job {
   std::int64_t total = 0;  ///< a study's runs
   std::int64_t done = 0;   ///< the largest progress.done the API served
   bool succeeded = false;  ///< the API served state succeeded
+  std::string ended;       ///< "failed" or "cancelled" when the API served that state
 };
 
 inline Job make_job(std::string collection, std::string key, fs::path body) {
@@ -124,6 +125,7 @@ inline void poll_job(const fs::path& dir, const std::string& url, Job& job) {
   if (j.is_discarded() || !j.contains("state")) return;
   if (j.contains("progress")) job.done = std::max<std::int64_t>(job.done, j["progress"]["done"]);
   if (j["state"] == "succeeded") job.succeeded = true;
+  if (j["state"] == "failed" || j["state"] == "cancelled") job.ended = j["state"];
 }
 
 /// The file holds everything the API confirmed of the jobs, and is sound (file_facts.h).
@@ -154,7 +156,7 @@ inline void expect_jobs_kept(const fs::path& db, const std::vector<Job>& jobs,
   }
 }
 
-/// Polls every job until all succeeded (true) or timeout.
+/// Polls every job until all succeeded (true), one failed or was cancelled, or timeout.
 inline bool wait_all_succeeded(const fs::path& dir, const std::string& url, std::vector<Job>& jobs,
                                std::chrono::seconds timeout) {
   const auto deadline = std::chrono::steady_clock::now() + timeout;
@@ -162,6 +164,10 @@ inline bool wait_all_succeeded(const fs::path& dir, const std::string& url, std:
     bool all = true;
     for (Job& job : jobs) {
       if (!job.succeeded) poll_job(dir, url, job);
+      if (!job.ended.empty()) {  // it will never succeed: say so now, not at the timeout
+        ADD_FAILURE() << job.collection << " " << job.id << " ended " << job.ended;
+        return false;
+      }
       all = all && job.succeeded;
     }
     if (all) return true;
