@@ -14,9 +14,13 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <set>
+#include <string>
+#include <vector>
 
 #include <spdlog/spdlog.h>
 
+#include "stickslip/common/text.h"
 #include "stickslip/server/api.h"
 #include "stickslip/server/diagnosis_worker.h"
 #include "stickslip/server/http_server.h"
@@ -139,9 +143,15 @@ int main(int argc, char** argv) {
   pthread_sigmask(SIG_BLOCK, &signals, nullptr);
 
   try {
-    std::string why;
-    if (!net.IsValid(&why) || !work.IsValid(&why) || !diag.IsValid(&why)) {
-      std::cerr << "stickslipd: " << why << "\n";
+    std::vector<std::string> errors;  // every broken option of the three, not only the first
+    net.IsValid(&errors);
+    work.IsValid(&errors);
+    diag.IsValid(&errors);
+    // diag takes some values from work (--worker-nice): each message once.
+    std::set<std::string> seen;
+    std::erase_if(errors, [&seen](const std::string& e) { return !seen.insert(e).second; });
+    if (!errors.empty()) {
+      std::cerr << "stickslipd: " << common::join(errors, "; ") << "\n";
       return 2;
     }
     auto health = std::make_shared<server::Health>();

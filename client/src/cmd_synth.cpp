@@ -4,6 +4,7 @@
 #include <iostream>
 
 #include "stickslip/client/cli.h"
+#include "stickslip/common/text.h"
 #include "stickslip/measured/synth.h"
 
 namespace stickslip::client {
@@ -45,8 +46,8 @@ int run_synth(SynthArgs& a) {
       c.va = va;
       o.runs.push_back(c);
     }
-    if (std::string why; !o.IsValid(&why)) throw std::invalid_argument(why);
     std::vector<std::string> errors;
+    if (!o.IsValid(&errors)) throw std::invalid_argument(common::join(errors, "; "));
     engine::SimConfig probe = o.model;
     measured::apply_conditions(o.runs[0], probe);
     if (!probe.IsValid(&errors)) throw std::invalid_argument(errors.front());

@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 #include <stdexcept>
 
+#include "stickslip/common/text.h"
 #include "stickslip/engine/simulate.h"
 
 namespace stickslip::measured {
@@ -19,30 +20,33 @@ std::string num(double v) {
 }
 }  // namespace
 
-bool SynthOptions::IsValid(std::string* why) const {
+bool SynthOptions::IsValid(std::vector<std::string>* errors) const {
+  bool ok = true;
   auto fail = [&](const std::string& m) {
-    if (why) *why = m;
-    return false;
+    ok = false;
+    if (errors != nullptr) errors->push_back(m);
   };
-  if (!(std::isfinite(rate) && rate > 0)) return fail("rate = " + num(rate) + ": must be > 0");
+  const bool rate_ok = std::isfinite(rate) && rate > 0;
+  if (!rate_ok) fail("rate = " + num(rate) + ": must be > 0");
   if (!(std::isfinite(noise_sigma) && noise_sigma >= 0))
-    return fail("noise = " + num(noise_sigma) + ": must be >= 0");
+    fail("noise = " + num(noise_sigma) + ": must be >= 0");
   if (!(std::isfinite(noise_rho) && noise_rho >= 0 && noise_rho < 1))
-    return fail("noise_ar = " + num(noise_rho) + ": must be in [0, 1)");
-  if (!std::isfinite(offset)) return fail("offset = " + num(offset) + ": must be finite");
-  if (!(std::isfinite(rtol) && rtol > 0)) return fail("rtol = " + num(rtol) + ": must be > 0");
-  if (runs.empty()) return fail("runs: at least one run is needed");
-  for (std::size_t i = 0; i < runs.size(); ++i) {
+    fail("noise_ar = " + num(noise_rho) + ": must be in [0, 1)");
+  if (!std::isfinite(offset)) fail("offset = " + num(offset) + ": must be finite");
+  if (!(std::isfinite(rtol) && rtol > 0)) fail("rtol = " + num(rtol) + ": must be > 0");
+  if (runs.empty()) fail("runs: at least one run is needed");
+  for (std::size_t i = 0; rate_ok && i < runs.size(); ++i) {  // the sample count needs the rate
     const auto& c = runs[i];
     if (!(c.duration * rate >= static_cast<double>(kMinMeasuredSamples)))
-      return fail("duration = " + num(c.duration) + ": run " + std::to_string(i + 1) +
-                  " gives fewer than " + std::to_string(kMinMeasuredSamples) + " samples");
+      fail("duration = " + num(c.duration) + ": run " + std::to_string(i + 1) +
+           " gives fewer than " + std::to_string(kMinMeasuredSamples) + " samples");
   }
-  return true;
+  return ok;
 }
 
 MeasuredDataset synthesize(const SynthOptions& o) {
-  if (std::string why; !o.IsValid(&why)) throw std::invalid_argument(why);
+  if (std::vector<std::string> errors; !o.IsValid(&errors))
+    throw std::invalid_argument(common::join(errors, "; "));
   MeasuredDataset data;
   data.name = o.name;
   boost::random::mt19937_64 gen(o.seed);

@@ -7,6 +7,7 @@
 
 #include "api_util.h"
 #include "stickslip/server/dashboard.h"
+#include "stickslip/common/text.h"
 #include "stickslip/common/json_schema.h"
 #include "stickslip/diagnosis/diagnosis_request.h"
 #include "stickslip/store/store.h"
@@ -20,30 +21,37 @@ using nlohmann::json;
 using store::StoreError;
 using store::StudyRecord;
 
-bool ApiOptions::IsValid(std::string* why) const {
+bool ApiOptions::IsValid(std::vector<std::string>* errors) const {
+  bool ok = true;
   auto fail = [&](const std::string& m) {
-    if (why != nullptr) *why = m;
-    return false;
+    ok = false;
+    if (errors != nullptr) errors->push_back(m);
   };
-  if (db.empty()) return fail("db: empty path");
-  if (max_body_bytes < 64) return fail("max_body_bytes: must be >= 64, got " +
-                                       std::to_string(max_body_bytes));
+  if (db.empty()) fail("db: empty path");
+  if (max_body_bytes < 64)
+    fail("max_body_bytes: must be >= 64, got " + std::to_string(max_body_bytes));
   if (max_diagnosis_body_bytes < 64)
-    return fail("max_diagnosis_body_bytes: must be >= 64, got " +
-                std::to_string(max_diagnosis_body_bytes));
+    fail("max_diagnosis_body_bytes: must be >= 64, got " +
+         std::to_string(max_diagnosis_body_bytes));
   if (diagnosis_threads < 0)
-    return fail("diagnosis_threads: must be >= 0, got " + std::to_string(diagnosis_threads));
-  if (limits.max_runs < 1) return fail("limits.max_runs: must be >= 1");
-  if (max_page_size < 1) return fail("max_page_size: must be >= 1");
+    fail("diagnosis_threads: must be >= 0, got " + std::to_string(diagnosis_threads));
+  if (limits.max_runs < 1)
+    fail("limits.max_runs: must be >= 1, got " + std::to_string(limits.max_runs));
+  if (max_page_size < 1) fail("max_page_size: must be >= 1, got " + std::to_string(max_page_size));
   if (default_page_size < 1 || default_page_size > max_page_size)
-    return fail("default_page_size: must be in [1, max_page_size], got " +
-                std::to_string(default_page_size));
+    fail("default_page_size: must be in [1, max_page_size], got " +
+         std::to_string(default_page_size));
   if (default_runs_page_size < 1 || default_runs_page_size > max_page_size)
-    return fail("default_runs_page_size: must be in [1, max_page_size], got " +
-                std::to_string(default_runs_page_size));
-  for (const char c : token)
-    if (c <= ' ' || c > '~') return fail("token: only visible ASCII characters are allowed");
-  return true;
+    fail("default_runs_page_size: must be in [1, max_page_size], got " +
+         std::to_string(default_runs_page_size));
+  // The token is a secret: the message names the offending character's position, not its value.
+  for (std::size_t i = 0; i < token.size(); ++i)
+    if (token[i] <= ' ' || token[i] > '~') {
+      fail("token: only visible ASCII characters are allowed, got another at character " +
+           std::to_string(i + 1));
+      break;
+    }
+  return ok;
 }
 
 CancelOutcome cancel_unclaimed(store::Store& store, const std::string& id) {
@@ -136,8 +144,8 @@ Api::Api(ApiOptions options, JobScheduler* scheduler, JobScheduler* diagnoses,
     : options_(std::move(options)),
       health_(std::move(health)),
       pool_(options_.db) {
-  std::string why;
-  if (!options_.IsValid(&why)) throw std::invalid_argument("ApiOptions: " + why);
+  if (std::vector<std::string> errors; !options_.IsValid(&errors))
+    throw std::invalid_argument("ApiOptions: " + common::join(errors, "; "));
   auto id_of = [](const PathParams& p) { return p.at("id"); };
   studies_ = study_resource(scheduler);
   diagnoses_ = diagnosis_resource(diagnoses);

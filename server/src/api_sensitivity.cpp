@@ -98,8 +98,10 @@ std::vector<FieldError> indices_query(const std::map<std::string, std::string>& 
   flag("keep_resamples", &opt->keep_resamples);
   flag("convergence", &opt->convergence);
   if (const auto it = q.find("method"); it != q.end()) opt->method = it->second;
-  if (std::string why; errors.empty() && !opt->IsValid(&why))
-    errors.push_back(FieldError::query(why.substr(0, why.find(' ')), why));
+  // One error per broken option, each at the query parameter its message starts with.
+  if (std::vector<std::string> broken; errors.empty() && !opt->IsValid(&broken))
+    for (const std::string& why : broken)
+      errors.push_back(FieldError::query(why.substr(0, why.find(' ')), why));
   return errors;
 }
 

@@ -3,6 +3,7 @@
 #include <spdlog/spdlog.h>
 
 
+#include "stickslip/common/text.h"
 #include "stickslip/diagnosis/diagnosis_request.h"
 
 namespace stickslip::server {
@@ -20,15 +21,16 @@ DiagnosisOutput run_diagnosis(const measured::MeasuredDataset& data,
   return {diagnosis::to_json(d), diagnosis_traces(d)};
 }
 
-bool DiagnosisWorkerOptions::IsValid(std::string* why) const {
+bool DiagnosisWorkerOptions::IsValid(std::vector<std::string>* errors) const {
+  bool ok = true;
   auto fail = [&](const std::string& m) {
-    if (why != nullptr) *why = m;
-    return false;
+    ok = false;
+    if (errors != nullptr) errors->push_back(m);
   };
-  if (threads < 0) return fail("threads: must be >= 0, got " + std::to_string(threads));
-  if (poll.count() < 1) return fail("poll: must be >= 1 ms, got " + std::to_string(poll.count()));
-  if (nice < 0 || nice > 19) return fail("nice: must be in [0, 19], got " + std::to_string(nice));
-  return true;
+  if (threads < 0) fail("threads: must be >= 0, got " + std::to_string(threads));
+  if (poll.count() < 1) fail("poll: must be >= 1 ms, got " + std::to_string(poll.count()));
+  if (nice < 0 || nice > 19) fail("nice: must be in [0, 19], got " + std::to_string(nice));
+  return ok;
 }
 
 namespace {
@@ -80,8 +82,8 @@ RunJobFn diagnosis_runner(DiagnoseFn fn, int threads) {
 
 namespace {
 JobWorkerOptions job_options(const DiagnosisWorkerOptions& o) {
-  if (std::string why; !o.IsValid(&why))
-    throw std::invalid_argument("DiagnosisWorkerOptions: " + why);
+  if (std::vector<std::string> errors; !o.IsValid(&errors))
+    throw std::invalid_argument("DiagnosisWorkerOptions: " + common::join(errors, "; "));
   JobWorkerOptions j;
   j.kind = "diagnosis";
   j.concurrency = 1;

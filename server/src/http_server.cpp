@@ -1,4 +1,5 @@
 #include "stickslip/server/http_server.h"
+#include "stickslip/common/text.h"
 #include "stickslip/server/priority.h"
 
 #include <algorithm>
@@ -23,29 +24,36 @@ namespace beast = boost::beast;
 namespace http = beast::http;
 using tcp = asio::ip::tcp;
 
-bool ServerOptions::IsValid(std::string* why) const {
+bool ServerOptions::IsValid(std::vector<std::string>* errors) const {
+  bool ok = true;
   auto fail = [&](const std::string& m) {
-    if (why != nullptr) *why = m;
-    return false;
+    ok = false;
+    if (errors != nullptr) errors->push_back(m);
   };
   boost::system::error_code ec;
   asio::ip::make_address(bind, ec);
-  if (ec) return fail("bind: not an IP address: \"" + bind + "\"");
-  if (io_threads < 1) return fail("io_threads: must be >= 1, got " + std::to_string(io_threads));
+  if (ec) fail("bind: not an IP address: \"" + bind + "\"");
+  if (io_threads < 1) fail("io_threads: must be >= 1, got " + std::to_string(io_threads));
   if (handler_threads < 0)
-    return fail("handler_threads: must be >= 0, got " + std::to_string(handler_threads));
+    fail("handler_threads: must be >= 0, got " + std::to_string(handler_threads));
   if (io_nice < 0 || io_nice > 19)
-    return fail("io_nice: must be in [0, 19], got " + std::to_string(io_nice));
+    fail("io_nice: must be in [0, 19], got " + std::to_string(io_nice));
   if (io_slice_us < 0 || io_slice_us > 100000)
-    return fail("io_slice_us: must be in [0, 100000], got " + std::to_string(io_slice_us));
-  if (max_connections < 1) return fail("max_connections: must be >= 1");
-  if (max_header_bytes < 1024) return fail("max_header_bytes: must be >= 1024");
-  if (idle_timeout.count() <= 0 || read_timeout.count() <= 0 || write_timeout.count() <= 0)
-    return fail("timeouts must be > 0");
+    fail("io_slice_us: must be in [0, 100000], got " + std::to_string(io_slice_us));
+  if (max_connections < 1)
+    fail("max_connections: must be >= 1, got " + std::to_string(max_connections));
+  if (max_header_bytes < 1024)
+    fail("max_header_bytes: must be >= 1024, got " + std::to_string(max_header_bytes));
+  for (const auto& [name, timeout] : {std::pair<const char*, std::chrono::milliseconds>{
+                                          "idle_timeout", idle_timeout},
+                                      {"read_timeout", read_timeout},
+                                      {"write_timeout", write_timeout}})
+    if (timeout.count() <= 0)
+      fail(std::string(name) + ": must be > 0 ms, got " + std::to_string(timeout.count()));
   if (min_poll_interval.count() < 0 || min_poll_interval.count() > 10000)
-    return fail("min_poll_interval: must be in [0, 10000] ms, got " +
-                std::to_string(min_poll_interval.count()));
-  return true;
+    fail("min_poll_interval: must be in [0, 10000] ms, got " +
+         std::to_string(min_poll_interval.count()));
+  return ok;
 }
 
 struct HttpServer::Impl {
@@ -334,8 +342,8 @@ void HttpServer::Impl::accept() {
 HttpServer::HttpServer(ServerOptions options, HttpHandler handler, InlineHandler inline_handler)
     : impl_(std::make_unique<Impl>(std::move(options), std::move(handler),
                                    std::move(inline_handler))) {
-  std::string why;
-  if (!impl_->options.IsValid(&why)) throw std::invalid_argument("ServerOptions: " + why);
+  if (std::vector<std::string> errors; !impl_->options.IsValid(&errors))
+    throw std::invalid_argument("ServerOptions: " + common::join(errors, "; "));
   const tcp::endpoint ep(asio::ip::make_address(impl_->options.bind), impl_->options.port);
   beast::error_code ec;
   auto& a = impl_->acceptor;

@@ -8,6 +8,7 @@
 #include <map>
 #include <mutex>
 
+#include "stickslip/common/text.h"
 #include "stickslip/server/priority.h"
 
 namespace stickslip::server {
@@ -39,18 +40,21 @@ CancelOutcome cancel_unclaimed(store::Store& store, const std::string& kind,
   return CancelOutcome::kCancelled;
 }
 
-bool JobWorkerOptions::IsValid(std::string* why) const {
+bool JobWorkerOptions::IsValid(std::vector<std::string>* errors) const {
+  bool ok = true;
   auto fail = [&](const std::string& m) {
-    if (why != nullptr) *why = m;
-    return false;
+    ok = false;
+    if (errors != nullptr) errors->push_back(m);
   };
-  if (kind.empty()) return fail("kind: empty");
-  if (concurrency < 1) return fail("concurrency: must be >= 1, got " + std::to_string(concurrency));
-  if (poll.count() < 1) return fail("poll: must be >= 1 ms, got " + std::to_string(poll.count()));
-  if (nice < 0 || nice > 19) return fail("nice: must be in [0, 19], got " + std::to_string(nice));
+  if (kind.empty()) fail("kind: empty");
+  if (concurrency < 1) fail("concurrency: must be >= 1, got " + std::to_string(concurrency));
+  if (poll.count() < 1) fail("poll: must be >= 1 ms, got " + std::to_string(poll.count()));
+  if (nice < 0 || nice > 19) fail("nice: must be in [0, 19], got " + std::to_string(nice));
   if (backoff_first.count() < 1 || backoff_max < backoff_first)
-    return fail("backoff: need 1 ms <= backoff_first <= backoff_max");
-  return true;
+    fail("backoff: need 1 ms <= backoff_first <= backoff_max, got backoff_first = " +
+         std::to_string(backoff_first.count()) + " ms, backoff_max = " +
+         std::to_string(backoff_max.count()) + " ms");
+  return ok;
 }
 
 /// Everything the threads use, owned jointly by the worker and its threads, so that a detached
@@ -214,8 +218,8 @@ void JobWorker::Shared::loop() {
 JobWorker::JobWorker(std::filesystem::path db, JobWorkerOptions options, RunJobFn run,
                      std::shared_ptr<Health> health)
     : shared_(std::make_shared<Shared>()) {
-  if (std::string why; !options.IsValid(&why))
-    throw std::invalid_argument("JobWorkerOptions: " + why);
+  if (std::vector<std::string> errors; !options.IsValid(&errors))
+    throw std::invalid_argument("JobWorkerOptions: " + common::join(errors, "; "));
   if (!run) throw std::invalid_argument("JobWorker: no run function");
   shared_->db = std::move(db);
   shared_->options = std::move(options);

@@ -2,19 +2,22 @@
 
 #include <spdlog/spdlog.h>
 
+#include "stickslip/common/text.h"
+
 
 namespace stickslip::server {
 
-bool WorkerOptions::IsValid(std::string* why) const {
+bool WorkerOptions::IsValid(std::vector<std::string>* errors) const {
+  bool ok = true;
   auto fail = [&](const std::string& m) {
-    if (why != nullptr) *why = m;
-    return false;
+    ok = false;
+    if (errors != nullptr) errors->push_back(m);
   };
-  if (concurrency < 1) return fail("concurrency: must be >= 1, got " + std::to_string(concurrency));
-  if (threads < 0) return fail("threads: must be >= 0, got " + std::to_string(threads));
-  if (poll.count() < 1) return fail("poll: must be >= 1 ms, got " + std::to_string(poll.count()));
-  if (nice < 0 || nice > 19) return fail("nice: must be in [0, 19], got " + std::to_string(nice));
-  return true;
+  if (concurrency < 1) fail("concurrency: must be >= 1, got " + std::to_string(concurrency));
+  if (threads < 0) fail("threads: must be >= 0, got " + std::to_string(threads));
+  if (poll.count() < 1) fail("poll: must be >= 1 ms, got " + std::to_string(poll.count()));
+  if (nice < 0 || nice > 19) fail("nice: must be in [0, 19], got " + std::to_string(nice));
+  return ok;
 }
 
 RunJobFn study_runner(RunStudyFn run, const WorkerOptions& options) {
@@ -48,7 +51,8 @@ RunJobFn study_runner(RunStudyFn run, const WorkerOptions& options) {
 
 namespace {
 JobWorkerOptions job_options(const WorkerOptions& o) {
-  if (std::string why; !o.IsValid(&why)) throw std::invalid_argument("WorkerOptions: " + why);
+  if (std::vector<std::string> errors; !o.IsValid(&errors))
+    throw std::invalid_argument("WorkerOptions: " + common::join(errors, "; "));
   JobWorkerOptions j;
   j.kind = "study";
   j.concurrency = o.concurrency;

@@ -11,6 +11,7 @@
 #include <tuple>
 #include <utility>
 
+#include "stickslip/common/text.h"
 #include "stickslip/studies/outputs.h"
 #include "stickslip/studies/sa_dgsm.h"
 #include "stickslip/studies/sa_fast.h"
@@ -269,19 +270,20 @@ OutputIndices analyse_output(const std::string& name, const std::string& method,
 
 }  // namespace
 
-bool IndicesOptions::IsValid(std::string* why) const {
+bool IndicesOptions::IsValid(std::vector<std::string>* errors) const {
+  bool ok = true;
   auto fail = [&](const std::string& m) {
-    if (why) *why = m;
-    return false;
+    ok = false;
+    if (errors != nullptr) errors->push_back(m);
   };
   if (!(confidence > 0.0 && confidence < 1.0))
-    return fail("confidence must be in (0, 1), got " + std::to_string(confidence));
-  if (resamples < 10) return fail("resamples must be >= 10, got " + std::to_string(resamples));
+    fail("confidence must be in (0, 1), got " + std::to_string(confidence));
+  if (resamples < 10) fail("resamples must be >= 10, got " + std::to_string(resamples));
   static const char* kMethods[] = {"", "sobol", "morris", "efast", "rbd_fast", "delta", "pawn", "dgsm"};
   if (std::find(std::begin(kMethods), std::end(kMethods), method) == std::end(kMethods))
-    return fail("method must be one of sobol, morris, efast, rbd_fast, delta, pawn, dgsm, got '" +
-                method + "'");
-  return true;
+    fail("method must be one of sobol, morris, efast, rbd_fast, delta, pawn, dgsm, got '" +
+         method + "'");
+  return ok;
 }
 
 bool StudyIndices::valid() const noexcept {
@@ -318,8 +320,8 @@ namespace {
 /// compute_indices without the "until" status (which computes indices itself).
 StudyIndices compute_core(store::Store& store, const std::string& study_id,
                           const std::vector<std::string>& outputs, const IndicesOptions& options) {
-  if (std::string why; !options.IsValid(&why))
-    throw std::invalid_argument("indices options: " + why);
+  if (std::vector<std::string> errors; !options.IsValid(&errors))
+    throw std::invalid_argument("indices options: " + common::join(errors, "; "));
   const auto study = store.get_study(study_id);
   if (!study) throw store::StoreError("unknown study '" + study_id + "' in " + store.path().string());
   const StudySpec spec = stored_spec(*study);

@@ -10,19 +10,22 @@
 #include <limits>
 #include <stdexcept>
 
+#include "stickslip/common/text.h"
+
 #include <boost/random/uniform_int_distribution.hpp>
 
 namespace stickslip::studies::sensitivity {
 
-bool BootstrapOptions::IsValid(std::string* why) const {
+bool BootstrapOptions::IsValid(std::vector<std::string>* errors) const {
+  bool ok = true;
   auto fail = [&](const std::string& m) {
-    if (why != nullptr) *why = m;
-    return false;
+    ok = false;
+    if (errors != nullptr) errors->push_back(m);
   };
   if (!(confidence > 0.0 && confidence < 1.0))
-    return fail("confidence must be in (0, 1), got " + std::to_string(confidence));
-  if (resamples == 0) return fail("resamples must be > 0, got 0");
-  return true;
+    fail("confidence must be in (0, 1), got " + std::to_string(confidence));
+  if (resamples == 0) fail("resamples must be > 0, got 0");
+  return ok;
 }
 
 const IndexValues* MethodIndices::find(const std::string& name) const {
@@ -51,8 +54,8 @@ void require_finite(const std::vector<double>& y, const char* func) {
 }
 
 void require_bootstrap(const BootstrapOptions& opt, const char* func) {
-  std::string why;
-  if (!opt.IsValid(&why)) invalid(std::string(func) + ": " + why);
+  if (std::vector<std::string> errors; !opt.IsValid(&errors))
+    invalid(std::string(func) + ": " + common::join(errors, "; "));
 }
 
 void require_matrix(const Matrix& x, std::size_t rows, std::size_t d, const char* func) {

@@ -11,6 +11,7 @@
 
 #include "sa_bootstrap.h"
 #include "sa_harmonics.h"
+#include "stickslip/common/text.h"
 
 namespace stickslip::studies::sensitivity {
 
@@ -28,23 +29,24 @@ double unit(detail::Rng& rng) { return static_cast<double>(rng() >> 11) * 0x1.0p
 
 }  // namespace
 
-bool EfastShape::IsValid(std::string* why) const {
+bool EfastShape::IsValid(std::vector<std::string>* errors) const {
+  bool ok = true;
   auto fail = [&](const std::string& m) {
-    if (why != nullptr) *why = m;
-    return false;
+    ok = false;
+    if (errors != nullptr) errors->push_back(m);
   };
-  if (d == 0) return fail("d must be > 0, got 0");
-  if (M == 0) return fail("M must be > 0, got 0");
-  if (replicates == 0) return fail("replicates must be > 0, got 0");
+  if (d == 0) fail("d must be > 0, got 0");
+  if (M == 0) fail("M must be > 0, got 0");
+  if (replicates == 0) fail("replicates must be > 0, got 0");
   if (n <= 4 * M * M)
-    return fail("n must be > 4 M^2 = " + std::to_string(4 * M * M) + " (M = " +
-                std::to_string(M) + "), got " + std::to_string(n));
-  return true;
+    fail("n must be > 4 M^2 = " + std::to_string(4 * M * M) + " (M = " + std::to_string(M) +
+         "), got " + std::to_string(n));
+  return ok;
 }
 
 std::vector<std::size_t> efast_frequencies(const EfastShape& s) {
-  std::string why;
-  if (!s.IsValid(&why)) invalid("efast_frequencies: " + why);
+  if (std::vector<std::string> errors; !s.IsValid(&errors))
+    invalid("efast_frequencies: " + common::join(errors, "; "));
   std::vector<std::size_t> omega(s.d);
   omega[0] = (s.n - 1) / (2 * s.M);
   const std::size_t m = omega[0] / (2 * s.M);  // >= 1 since n > 4 M^2
@@ -106,8 +108,8 @@ std::pair<double, double> curve_indices(const std::vector<double>& z, std::size_
 
 MethodIndices efast_analysis(const std::vector<double>& y, const EfastShape& s,
                              const BootstrapOptions& opt) {
-  std::string why;
-  if (!s.IsValid(&why)) invalid("efast_analysis: " + why);
+  if (std::vector<std::string> errors; !s.IsValid(&errors))
+    invalid("efast_analysis: " + common::join(errors, "; "));
   detail::require_bootstrap(opt, "efast_analysis");
   if (y.size() != s.runs())
     invalid("efast_analysis: y has " + std::to_string(y.size()) + " values, the design has " +

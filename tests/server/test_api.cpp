@@ -12,6 +12,7 @@
 #include "stickslip/studies/map.h"
 #include "stickslip/store/store.h"
 #include "test_support.h"
+#include "support/is_valid.h"
 
 namespace stickslip::server {
 namespace {
@@ -559,12 +560,14 @@ TEST(ApiOptions, InvalidOptionsAreRejectedWithTheField) {
   ApiOptions o;
   std::string why;
   o.max_body_bytes = 1;
-  EXPECT_FALSE(o.IsValid(&why));
+  EXPECT_FALSE(stickslip::testing::is_valid(o, why));
   EXPECT_NE(why.find("max_body_bytes"), std::string::npos);
   o = ApiOptions{};
   o.token = "has space";
-  EXPECT_FALSE(o.IsValid(&why));
+  EXPECT_FALSE(stickslip::testing::is_valid(o, why));
   EXPECT_NE(why.find("token"), std::string::npos);
+  EXPECT_EQ(why.find("has space"), std::string::npos) << why;  // the secret is not repeated
+  EXPECT_NE(why.find("character 4"), std::string::npos) << why;
 }
 
 TEST(ApiStore, UnopenableDatabaseFailsAtConstruction) {

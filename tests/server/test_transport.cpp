@@ -18,6 +18,7 @@
 #include "stickslip/server/api.h"
 #include "stickslip/server/priority.h"
 #include "test_support.h"
+#include "support/is_valid.h"
 
 namespace stickslip::server {
 namespace {
@@ -282,25 +283,43 @@ TEST(ServerOptions, InvalidOptionsNameTheField) {
   ServerOptions o;
   o.bind = "localhost:80";
   std::string why;
-  EXPECT_FALSE(o.IsValid(&why));
+  EXPECT_FALSE(stickslip::testing::is_valid(o, why));
   EXPECT_NE(why.find("bind"), std::string::npos);
   for (const int bad : {-1, 20, 25}) {
     o = ServerOptions{};
     o.io_nice = bad;
-    EXPECT_FALSE(o.IsValid(&why)) << bad;
+    EXPECT_FALSE(stickslip::testing::is_valid(o, why)) << bad;
     EXPECT_NE(why.find("io_nice"), std::string::npos) << why;
     EXPECT_NE(why.find("got " + std::to_string(bad)), std::string::npos) << why;
   }
   o = ServerOptions{};
   o.io_nice = 19;
-  EXPECT_TRUE(o.IsValid(&why)) << why;
+  EXPECT_TRUE(stickslip::testing::is_valid(o, why)) << why;
   for (const int bad : {-5, 100001}) {
     o = ServerOptions{};
     o.io_slice_us = bad;
-    EXPECT_FALSE(o.IsValid(&why)) << bad;
+    EXPECT_FALSE(stickslip::testing::is_valid(o, why)) << bad;
     EXPECT_NE(why.find("io_slice_us"), std::string::npos) << why;
     EXPECT_NE(why.find("got " + std::to_string(bad)), std::string::npos) << why;
   }
+}
+
+TEST(ServerOptions, EveryBrokenOptionIsNamedWithItsValue) {
+  ServerOptions o;
+  o.io_threads = 0;
+  o.max_connections = 0;
+  o.read_timeout = std::chrono::milliseconds(-7);
+  std::vector<std::string> errors;
+  EXPECT_FALSE(o.IsValid(&errors));
+  ASSERT_EQ(errors.size(), 3u);
+  EXPECT_NE(errors[0].find("io_threads"), std::string::npos) << errors[0];
+  EXPECT_NE(errors[0].find("got 0"), std::string::npos) << errors[0];
+  EXPECT_NE(errors[1].find("max_connections"), std::string::npos) << errors[1];
+  EXPECT_NE(errors[1].find("got 0"), std::string::npos) << errors[1];
+  EXPECT_NE(errors[2].find("read_timeout"), std::string::npos) << errors[2];
+  EXPECT_NE(errors[2].find("got -7"), std::string::npos) << errors[2];
+  EXPECT_FALSE(o.IsValid());  // errors may be null
+  EXPECT_TRUE(ServerOptions{}.IsValid());
 }
 
 TEST(ServerOptions, MinPollIntervalIsBounded) {
@@ -308,12 +327,12 @@ TEST(ServerOptions, MinPollIntervalIsBounded) {
   std::string why;
   for (const auto bad : {-1ll, 10001ll}) {
     o.min_poll_interval = std::chrono::milliseconds(bad);
-    EXPECT_FALSE(o.IsValid(&why)) << bad;
+    EXPECT_FALSE(stickslip::testing::is_valid(o, why)) << bad;
     EXPECT_NE(why.find("min_poll_interval"), std::string::npos) << why;
     EXPECT_NE(why.find("got " + std::to_string(bad)), std::string::npos) << why;
   }
   o.min_poll_interval = 0ms;
-  EXPECT_TRUE(o.IsValid(&why)) << why;
+  EXPECT_TRUE(stickslip::testing::is_valid(o, why)) << why;
 }
 
 // Pacing is behaviour, checked with wide margins: a repeated GET of the same target on the same

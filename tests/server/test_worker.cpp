@@ -11,6 +11,7 @@
 
 #include "stickslip/server/api.h"
 #include "test_support.h"
+#include "support/is_valid.h"
 
 namespace stickslip::server {
 namespace {
@@ -217,7 +218,7 @@ TEST(WorkerOptions, InvalidOptionsNameTheField) {
   WorkerOptions o;
   o.concurrency = 0;
   std::string why;
-  EXPECT_FALSE(o.IsValid(&why));
+  EXPECT_FALSE(stickslip::testing::is_valid(o, why));
   EXPECT_NE(why.find("concurrency"), std::string::npos);
 }
 

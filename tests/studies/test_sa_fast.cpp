@@ -11,6 +11,7 @@
 
 #include "stickslip/studies/sa_given.h"
 #include "support/sa_functions.h"
+#include "support/is_valid.h"
 
 namespace {
 
@@ -43,7 +44,7 @@ TEST(EfastFrequencies, FollowSaltelliAndSalib) {
   EXPECT_EQ(ss::efast_frequencies(efast(65, 3, 1)), (std::vector<std::size_t>{8, 1, 1}));
   EXPECT_EQ(ss::efast_frequencies(efast(257, 4, 1)), (std::vector<std::size_t>{32, 1, 2, 4}));
   std::string why;
-  EXPECT_FALSE(efast(64, 3, 1).IsValid(&why));
+  EXPECT_FALSE(stickslip::testing::is_valid(efast(64, 3, 1), why));
   EXPECT_NE(why.find("4 M^2 = 64"), std::string::npos) << why;
   EXPECT_THROW(ss::efast_design(efast(64, 3, 1), 1), std::invalid_argument);
 }

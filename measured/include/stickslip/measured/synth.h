@@ -29,7 +29,9 @@ struct SynthOptions {
   std::uint64_t seed = 1;
   double rtol = 1e-9;         ///< engine accuracy (adaptive rtol = atol [N]); converged
 
-  bool IsValid(std::string* why) const;
+  /// True if every field holds. Otherwise appends one message per broken constraint, naming the
+  /// field and the value, to *errors when errors is non-null.
+  bool IsValid(std::vector<std::string>* errors = nullptr) const;
 };
 
 /// Simulates every run and returns the dataset in memory (manifest path empty; each run's file

@@ -68,7 +68,9 @@ struct ApiOptions {
   /// clients polling one study then cost one store read per period instead of one per request.
   std::chrono::milliseconds study_cache_ttl{100};
 
-  bool IsValid(std::string* why) const;
+  /// True if every field holds. Otherwise appends one message per broken constraint, naming the
+  /// field and the value, to *errors when errors is non-null.
+  bool IsValid(std::vector<std::string>* errors = nullptr) const;
 };
 
 /// One kind of job as an HTTP resource: what the one set of create, list, get and cancel

@@ -56,7 +56,9 @@ struct DiagnosisWorkerOptions {
   std::chrono::milliseconds poll{1000};   ///< how often the store is scanned without a notify
   int nice = 10;                          ///< nice value of the worker thread (see worker.h)
 
-  bool IsValid(std::string* why) const;
+  /// True if every field holds. Otherwise appends one message per broken constraint, naming the
+  /// field and the value, to *errors when errors is non-null.
+  bool IsValid(std::vector<std::string>* errors = nullptr) const;
 };
 
 /// The "run this job" step of a diagnosis: parses the stored request and calls fn.

@@ -40,6 +40,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "stickslip/server/http.h"
 
@@ -67,7 +68,9 @@ struct ServerOptions {
   std::chrono::milliseconds write_timeout{30000};
   std::chrono::milliseconds min_poll_interval{20};  ///< 0..10000; see the header comment
 
-  bool IsValid(std::string* why) const;
+  /// True if every field holds. Otherwise appends one message per broken constraint, naming the
+  /// field and the value, to *errors when errors is non-null.
+  bool IsValid(std::vector<std::string>* errors = nullptr) const;
 };
 
 using HttpHandler = std::function<Response(const Request&)>;

@@ -105,7 +105,9 @@ struct JobWorkerOptions {
   std::chrono::milliseconds backoff_first{1000};  ///< first pause after a store fault
   std::chrono::milliseconds backoff_max{60000};   ///< the pause doubles up to this
 
-  bool IsValid(std::string* why) const;
+  /// True if every field holds. Otherwise appends one message per broken constraint, naming the
+  /// field and the value, to *errors when errors is non-null.
+  bool IsValid(std::vector<std::string>* errors = nullptr) const;
 };
 
 class JobWorker : public JobScheduler {

@@ -41,7 +41,9 @@ struct WorkerOptions {
   int nice = 0;
   store::WriterOptions writer;
 
-  bool IsValid(std::string* why) const;
+  /// True if every field holds. Otherwise appends one message per broken constraint, naming the
+  /// field and the value, to *errors when errors is non-null.
+  bool IsValid(std::vector<std::string>* errors = nullptr) const;
 };
 
 /// The "run this job" step of a study: parses the stored spec and calls run (run_study).

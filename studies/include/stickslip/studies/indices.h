@@ -48,8 +48,9 @@ struct IndicesOptions {
   std::string method;           ///< "" = the design's own method (see above)
   bool keep_resamples = false;  ///< keep every bootstrap replicate in the result
   bool convergence = false;     ///< sobol: also the indices on the prefixes N = 16, 32, ...
-  /// False, with the first broken constraint (field and value) in *why, when an option is bad.
-  bool IsValid(std::string* why) const;
+  /// True if every field holds. Otherwise appends one message per broken constraint, naming the
+  /// field and the value, to *errors when errors is non-null.
+  bool IsValid(std::vector<std::string>* errors = nullptr) const;
 };
 
 /// A design point that makes an output's indices invalid.

@@ -45,8 +45,9 @@ struct EfastShape {
   std::size_t run(std::size_t r, std::size_t i, std::size_t k) const noexcept {
     return (r * d + i) * n + k;
   }
-  /// False, naming the broken constraint and its value, when a field is out of range.
-  bool IsValid(std::string* why) const;
+  /// True if every field holds. Otherwise appends one message per broken constraint, naming the
+  /// field and the value, to *errors when errors is non-null.
+  bool IsValid(std::vector<std::string>* errors = nullptr) const;
 };
 
 /// [0]: omega_max, the frequency of the curve's own parameter; [1..d-1]: the frequencies of the

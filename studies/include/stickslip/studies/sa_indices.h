@@ -28,8 +28,9 @@ struct BootstrapOptions {
   std::size_t resamples = 1000;  ///< bootstrap resamples, > 0
   std::uint64_t seed = 1;        ///< the intervals are a deterministic function of it
   bool keep_resamples = false;   ///< keep every replicate in IndexValues::resamples
-  /// False, with the broken constraint and its value in *why, when an option is out of range.
-  bool IsValid(std::string* why) const;
+  /// True if every field holds. Otherwise appends one message per broken constraint, naming the
+  /// field and the value, to *errors when errors is non-null.
+  bool IsValid(std::vector<std::string>* errors = nullptr) const;
 };
 
 /// One named index for every parameter (or parameter pair).
