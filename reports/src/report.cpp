@@ -85,6 +85,94 @@ std::string utc_today() {
 
 // ------------------------------------------------------------------------------ configuration
 
+namespace {
+
+using SpecErrors = std::vector<common::SpecError>;
+
+/// The text of an entry's study spec: the file it names (relative to the config's directory) or
+/// the inline object. Sets entry.spec_source and entry.spec_dir; nullopt, with the error, when
+/// the file cannot be read.
+std::optional<std::string> entry_spec_text(const json& e, const std::string& at,
+                                           const fs::path& config_dir, ReportEntry& entry,
+                                           SpecErrors& errors) {
+  if (e.at("spec").is_string()) {
+    entry.spec_source = e["spec"].get<std::string>();
+    fs::path p = entry.spec_source;
+    if (p.is_relative()) p = config_dir / p;
+    auto t = read_file(p);
+    if (!t) {
+      errors.push_back({at + "/spec", "cannot read study file '" + p.string() + "'"});
+      return std::nullopt;
+    }
+    entry.spec_dir = p.parent_path();
+    return t;
+  }
+  entry.spec_source = "(inline)";
+  entry.spec_dir = config_dir;
+  return e["spec"].dump();
+}
+
+/// What an entry of kind `kind` needs of its parsed spec (a sampled design for indices, a grid
+/// for maps and traces, kept traces) and its outputs (indices only, each one the study has).
+void check_entry(const json& e, const std::string& at, const std::string& kind, ReportEntry& entry,
+                 SpecErrors& errors) {
+  const studies::DesignType type = entry.spec->design().type;
+  if (entry.kind == EntryKind::kIndices &&
+      (type == studies::DesignType::kGrid || type == studies::DesignType::kList))
+    errors.push_back({at + "/spec", std::string("an indices entry needs a sampled design "
+                                                "(sobol, morris, efast, rbd_fast, dgsm, "
+                                                "random or lhs), got '") +
+                                        to_string(type) + "'"});
+  if (entry.kind != EntryKind::kIndices && type != studies::DesignType::kGrid)
+    errors.push_back({at + "/spec", std::string("a ") + kind + " entry needs a grid design, got '" +
+                                        to_string(type) + "'"});
+  if (entry.kind == EntryKind::kTraces && entry.spec->trace_rate() <= 0)
+    errors.push_back({at + "/spec", "a traces entry needs a study that keeps traces "
+                                    "(outputs.traces.rate)"});
+  if (e.contains("outputs")) {
+    if (entry.kind != EntryKind::kIndices)
+      errors.push_back({at + "/outputs", "only indices entries take outputs"});
+    for (std::size_t k = 0; k < e["outputs"].size(); ++k) {
+      const std::string o = e["outputs"][k].get<std::string>();
+      if (const std::string why = studies::check_output(*entry.spec, o); !why.empty())
+        errors.push_back({at + "/outputs/" + std::to_string(k), why});
+      entry.outputs.push_back(o);
+    }
+  }
+}
+
+/// One entry of the config's "studies" (e, at the JSON Pointer at), schema-valid: its spec read
+/// and parsed, and checked for its kind. nullopt when the spec could not be read or parsed; every
+/// problem is appended to errors.
+std::optional<ReportEntry> parse_entry(const json& e, const std::string& at,
+                                       const fs::path& config_dir, SpecErrors& errors) {
+  ReportEntry entry;
+  entry.id = e.at("id").get<std::string>();
+  entry.title = e.value("title", entry.id);
+  const std::string kind = e.at("kind").get<std::string>();
+  entry.kind = kind == "map" ? EntryKind::kMap
+               : kind == "traces" ? EntryKind::kTraces
+                                  : EntryKind::kIndices;
+  const auto spec_text = entry_spec_text(e, at, config_dir, entry, errors);
+  if (!spec_text) return std::nullopt;
+  studies::ParseResult parsed = studies::parse_study(*spec_text);
+  if (!parsed.ok()) {
+    for (const auto& err : parsed.errors)
+      errors.push_back({at + "/spec" + (e["spec"].is_string() ? "" : err.pointer),
+                        (e["spec"].is_string() ? entry.spec_source + ": " + err.pointer +
+                                                     (err.pointer.empty() ? "" : ": ")
+                                               : std::string()) +
+                            err.message});
+    return std::nullopt;
+  }
+  entry.spec = std::make_shared<const studies::StudySpec>(std::move(*parsed.spec));
+  entry.method = e.value("method", "");
+  check_entry(e, at, kind, entry, errors);
+  return entry;
+}
+
+}  // namespace
+
 ReportConfigResult parse_report_config(std::string_view text, const fs::path& config_dir) {
   ReportConfigResult result;
   auto doc = common::parse_json(text, &result.errors);
@@ -109,71 +197,12 @@ ReportConfigResult parse_report_config(std::string_view text, const fs::path& co
   std::set<std::string> ids;
   const json& studies = doc->at("studies");
   for (std::size_t i = 0; i < studies.size(); ++i) {
-    const json& e = studies[i];
     const std::string at = "/studies/" + std::to_string(i);
-    ReportEntry entry;
-    entry.id = e.at("id").get<std::string>();
-    entry.title = e.value("title", entry.id);
-    const std::string kind = e.at("kind").get<std::string>();
-    entry.kind = kind == "map" ? EntryKind::kMap
-                 : kind == "traces" ? EntryKind::kTraces
-                                    : EntryKind::kIndices;
-    if (!ids.insert(entry.id).second)
-      result.errors.push_back({at + "/id", "duplicate entry id \"" + entry.id + "\""});
-    std::string spec_text;
-    if (e.at("spec").is_string()) {
-      entry.spec_source = e["spec"].get<std::string>();
-      fs::path p = entry.spec_source;
-      if (p.is_relative()) p = config_dir / p;
-      const auto t = read_file(p);
-      if (!t) {
-        result.errors.push_back({at + "/spec", "cannot read study file '" + p.string() + "'"});
-        continue;
-      }
-      spec_text = *t;
-      entry.spec_dir = p.parent_path();
-    } else {
-      entry.spec_source = "(inline)";
-      spec_text = e["spec"].dump();
-      entry.spec_dir = config_dir;
-    }
-    studies::ParseResult parsed = studies::parse_study(spec_text);
-    if (!parsed.ok()) {
-      for (const auto& err : parsed.errors)
-        result.errors.push_back({at + "/spec" + (e["spec"].is_string() ? "" : err.pointer),
-                                 (e["spec"].is_string() ? entry.spec_source + ": " + err.pointer +
-                                                              (err.pointer.empty() ? "" : ": ")
-                                                        : std::string()) +
-                                     err.message});
-      continue;
-    }
-    entry.spec = std::make_shared<const studies::StudySpec>(std::move(*parsed.spec));
-    const studies::DesignType type = entry.spec->design().type;
-    if (entry.kind == EntryKind::kIndices &&
-        (type == studies::DesignType::kGrid || type == studies::DesignType::kList))
-      result.errors.push_back({at + "/spec", std::string("an indices entry needs a sampled design "
-                                                         "(sobol, morris, efast, rbd_fast, dgsm, "
-                                                         "random or lhs), got '") +
-                                                 to_string(type) + "'"});
-    entry.method = e.value("method", "");
-    if (entry.kind != EntryKind::kIndices && type != studies::DesignType::kGrid)
-      result.errors.push_back({at + "/spec", std::string("a ") + kind +
-                                                 " entry needs a grid design, got '" +
-                                                 to_string(type) + "'"});
-    if (entry.kind == EntryKind::kTraces && entry.spec->trace_rate() <= 0)
-      result.errors.push_back({at + "/spec", "a traces entry needs a study that keeps traces "
-                                             "(outputs.traces.rate)"});
-    if (e.contains("outputs")) {
-      if (entry.kind != EntryKind::kIndices)
-        result.errors.push_back({at + "/outputs", "only indices entries take outputs"});
-      for (std::size_t k = 0; k < e["outputs"].size(); ++k) {
-        const std::string o = e["outputs"][k].get<std::string>();
-        if (const std::string why = studies::check_output(*entry.spec, o); !why.empty())
-          result.errors.push_back({at + "/outputs/" + std::to_string(k), why});
-        entry.outputs.push_back(o);
-      }
-    }
-    cfg.entries.push_back(std::move(entry));
+    const std::string id = studies[i].at("id").get<std::string>();
+    if (!ids.insert(id).second)
+      result.errors.push_back({at + "/id", "duplicate entry id \"" + id + "\""});
+    if (auto entry = parse_entry(studies[i], at, config_dir, result.errors))
+      cfg.entries.push_back(std::move(*entry));
   }
   if (result.errors.empty()) result.config = std::move(cfg);
   return result;
