@@ -145,6 +145,47 @@ std::vector<std::size_t> decimate(const std::vector<double>& measured, std::size
   return out;
 }
 
+/// Every sample of [begin, stop) (no decimation), with both residuals, as the .dat files of
+/// `stickslip diagnose --out`.
+Response trace_csv(const store::DiagnosisTrace& tr, std::size_t begin, std::size_t stop) {
+  const bool has_ext = !tr.extended.empty();
+  std::string csv = "t,measured,base,extended,residual_base,residual_extended\n";
+  for (std::size_t i = begin; i < stop; ++i) {
+    const double ext = has_ext ? tr.extended[i] : std::nan("");
+    csv += detail::csv_number(tr.t[i]) + "," + detail::csv_number(tr.measured[i]) + "," +
+           detail::csv_number(tr.base[i]) + "," + detail::csv_number(ext) + "," +
+           detail::csv_number(tr.measured[i] - tr.base[i]) + "," +
+           detail::csv_number(tr.measured[i] - ext) + "\n";
+  }
+  return text_response(200, "text/csv; charset=utf-8", std::move(csv));
+}
+
+/// The samples of [begin, stop), decimated to at most max_points, as the JSON resource.
+Response trace_json(const std::string& id, std::int64_t index, const store::DiagnosisTrace& tr,
+                    std::size_t begin, std::size_t stop, std::size_t max_points) {
+  const bool has_ext = !tr.extended.empty();
+  const auto keep = decimate(tr.measured, begin, stop, max_points);
+  json t = json::array(), measured = json::array(), base = json::array();
+  json extended = has_ext ? json::array() : json(nullptr);
+  for (const std::size_t i : keep) {
+    t.push_back(detail::number_or_null(tr.t[i]));
+    measured.push_back(detail::number_or_null(tr.measured[i]));
+    base.push_back(detail::number_or_null(tr.base[i]));
+    if (has_ext) extended.push_back(detail::number_or_null(tr.extended[i]));
+  }
+  return json_response(200, {{"diagnosis_id", id},
+                             {"index", index},
+                             {"run", tr.run},
+                             {"samples", stop - begin},
+                             {"total_samples", tr.t.size()},
+                             {"returned", keep.size()},
+                             {"decimated", keep.size() < stop - begin},
+                             {"t", std::move(t)},
+                             {"measured", std::move(measured)},
+                             {"base", std::move(base)},
+                             {"extended", std::move(extended)}});
+}
+
 }  // namespace
 
 Response Api::list_diagnosis_traces(const Request& r, const std::string& id) const {
@@ -226,40 +267,8 @@ Response Api::get_diagnosis_trace(const Request& r, const std::string& id,
                                          tr->t.begin())
               : tr->t.size();
     const std::size_t stop = std::max(begin, end);
-    const bool has_ext = !tr->extended.empty();
-    if (*format == detail::Format::kCsv) {
-      // Every sample of the window (no decimation), with both residuals, as the .dat files of
-      // `stickslip diagnose --out`.
-      std::string csv = "t,measured,base,extended,residual_base,residual_extended\n";
-      for (std::size_t i = begin; i < stop; ++i) {
-        const double ext = has_ext ? tr->extended[i] : std::nan("");
-        csv += detail::csv_number(tr->t[i]) + "," + detail::csv_number(tr->measured[i]) + "," +
-               detail::csv_number(tr->base[i]) + "," + detail::csv_number(ext) + "," +
-               detail::csv_number(tr->measured[i] - tr->base[i]) + "," +
-               detail::csv_number(tr->measured[i] - ext) + "\n";
-      }
-      return text_response(200, "text/csv; charset=utf-8", std::move(csv));
-    }
-    const auto keep = decimate(tr->measured, begin, stop, *max_points);
-    json t = json::array(), measured = json::array(), base = json::array();
-    json extended = has_ext ? json::array() : json(nullptr);
-    for (const std::size_t i : keep) {
-      t.push_back(detail::number_or_null(tr->t[i]));
-      measured.push_back(detail::number_or_null(tr->measured[i]));
-      base.push_back(detail::number_or_null(tr->base[i]));
-      if (has_ext) extended.push_back(detail::number_or_null(tr->extended[i]));
-    }
-    return json_response(200, {{"diagnosis_id", id},
-                               {"index", index},
-                               {"run", tr->run},
-                               {"samples", stop - begin},
-                               {"total_samples", tr->t.size()},
-                               {"returned", keep.size()},
-                               {"decimated", keep.size() < stop - begin},
-                               {"t", std::move(t)},
-                               {"measured", std::move(measured)},
-                               {"base", std::move(base)},
-                               {"extended", std::move(extended)}});
+    if (*format == detail::Format::kCsv) return trace_csv(*tr, begin, stop);
+    return trace_json(id, index, *tr, begin, stop, *max_points);
   } catch (const StoreError& e) {
     return detail::store_failure(e, r.path());
   }
