@@ -41,26 +41,16 @@ const char* to_string(CellState s) noexcept {
   return "?";
 }
 
-StudyMap build_map(store::Store& store, const std::string& study_id) {
-  const auto study = store.get_study(study_id);
-  if (!study) throw store::StoreError("unknown study '" + study_id + "' in " + store.path().string());
-  ParseResult parsed = parse_study(study->spec_json, Limits{.max_runs = static_cast<std::size_t>(
-                                                                std::max<std::int64_t>(study->total_runs, 1))});
-  if (!parsed.ok())
-    throw std::invalid_argument("study " + study_id + ": its stored spec does not parse: " +
-                                parsed.errors.front().pointer + ": " +
-                                parsed.errors.front().message);
-  const StudySpec& spec = *parsed.spec;
+namespace {
 
-  StudyMap map;
-  map.study_id = study->id;
-  map.study_name = study->name;
-  map.state = to_string(study->state);
-  map.stages = spec.is_analytic() ? 1 : spec.base_config().stages.size();
+using CellPlace = std::pair<std::size_t, std::size_t>;  // (row, column)
 
-  // Expected cells from the design.
+/// The map's models, key names, rows and expected cells from the design; returns where each
+/// design index lands. Throws when two design points fall in one cell.
+std::vector<CellPlace> expected_cells(const StudySpec& spec, const std::string& study_id,
+                                      StudyMap& map) {
   std::map<std::vector<double>, std::size_t> row_of;   // key values -> row
-  std::vector<std::pair<std::size_t, std::size_t>> where(spec.run_count());  // index -> (row, col)
+  std::vector<CellPlace> where(spec.run_count());
   for (std::size_t i = 0; i < spec.run_count(); ++i) {
     const DesignPoint p = spec.point(i);
     const std::string model = p.model.empty() ? std::string("-") : p.model;
@@ -95,6 +85,48 @@ StudyMap build_map(store::Store& store, const std::string& study_id) {
     where[i] = {it->second, col};
   }
   for (MapRow& r : map.rows) r.cells.resize(map.models.size());
+  return where;
+}
+
+/// A stored run's metrics in its cell.
+void fill_cell(MapCell& c, const store::RunRecord& run, std::size_t stages) {
+  c.status = run.status;
+  c.error = run.error;
+  c.state = run.status == "ok" ? CellState::kOk : CellState::kFailed;
+  c.amplitude.assign(stages, std::nan(""));
+  c.mean_force.assign(stages, std::nan(""));
+  c.stage_rmse.assign(stages, std::nullopt);
+  for (const store::StageMetricsRecord& s : run.stages) {
+    if (s.stage < 1 || static_cast<std::size_t>(s.stage) > stages) continue;
+    c.amplitude[s.stage - 1] = s.amplitude;
+    c.mean_force[s.stage - 1] = s.mean_force;
+    c.stage_rmse[s.stage - 1] = s.rmse;
+  }
+  c.rmse = run.rmse;
+  if (stages >= 2 && std::isfinite(c.amplitude.front()) && c.amplitude.front() > 0 &&
+      std::isfinite(c.amplitude.back()))
+    c.ratio = c.amplitude.back() / c.amplitude.front();
+}
+
+}  // namespace
+
+StudyMap build_map(store::Store& store, const std::string& study_id) {
+  const auto study = store.get_study(study_id);
+  if (!study) throw store::StoreError("unknown study '" + study_id + "' in " + store.path().string());
+  ParseResult parsed = parse_study(study->spec_json, Limits{.max_runs = static_cast<std::size_t>(
+                                                                std::max<std::int64_t>(study->total_runs, 1))});
+  if (!parsed.ok())
+    throw std::invalid_argument("study " + study_id + ": its stored spec does not parse: " +
+                                parsed.errors.front().pointer + ": " +
+                                parsed.errors.front().message);
+  const StudySpec& spec = *parsed.spec;
+
+  StudyMap map;
+  map.study_id = study->id;
+  map.study_name = study->name;
+  map.state = to_string(study->state);
+  map.stages = spec.is_analytic() ? 1 : spec.base_config().stages.size();
+  const std::vector<CellPlace> where = expected_cells(spec, study_id, map);
 
   // Stored runs.
   std::int64_t after = -1;
@@ -105,23 +137,7 @@ StudyMap build_map(store::Store& store, const std::string& study_id) {
       after = run.design_index;
       if (run.design_index < 0 || static_cast<std::size_t>(run.design_index) >= where.size()) continue;
       const auto [row, col] = where[run.design_index];
-      MapCell& c = map.rows[row].cells[col];
-      c.status = run.status;
-      c.error = run.error;
-      c.state = run.status == "ok" ? CellState::kOk : CellState::kFailed;
-      c.amplitude.assign(map.stages, std::nan(""));
-      c.mean_force.assign(map.stages, std::nan(""));
-      c.stage_rmse.assign(map.stages, std::nullopt);
-      for (const store::StageMetricsRecord& s : run.stages) {
-        if (s.stage < 1 || static_cast<std::size_t>(s.stage) > map.stages) continue;
-        c.amplitude[s.stage - 1] = s.amplitude;
-        c.mean_force[s.stage - 1] = s.mean_force;
-        c.stage_rmse[s.stage - 1] = s.rmse;
-      }
-      c.rmse = run.rmse;
-      if (map.stages >= 2 && std::isfinite(c.amplitude.front()) && c.amplitude.front() > 0 &&
-          std::isfinite(c.amplitude.back()))
-        c.ratio = c.amplitude.back() / c.amplitude.front();
+      fill_cell(map.rows[row].cells[col], run, map.stages);
     }
   }
   for (const MapRow& r : map.rows)
