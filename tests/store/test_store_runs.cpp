@@ -26,6 +26,72 @@ using namespace stickslip::store::test_support;
 // Runs
 // ---------------------------------------------------------------------------------------------
 
+/// Every stored trace equals the generated one, bit for bit; *n_traces counts the runs with one.
+void expect_same_traces(Store& store, const std::string& study, const std::vector<RunRecord>& want,
+                        std::int64_t* n_traces) {
+  for (const auto& w : want) {
+    const auto trace = store.get_trace(study, w.design_index);
+    ASSERT_EQ(trace.has_value(), !w.trace.empty()) << w.design_index;
+    if (!trace) continue;
+    ++*n_traces;
+    ASSERT_EQ(trace->size(), w.trace.size());
+    for (std::size_t k = 0; k < trace->size(); ++k) {
+      EXPECT_SAME_DOUBLE((*trace)[k].t, w.trace[k].t);
+      EXPECT_SAME_DOUBLE((*trace)[k].F_d, w.trace[k].F_d);
+      EXPECT_SAME_DOUBLE((*trace)[k].F_f, w.trace[k].F_f);
+      EXPECT_SAME_DOUBLE((*trace)[k].x, w.trace[k].x);
+      EXPECT_SAME_DOUBLE((*trace)[k].v, w.trace[k].v);
+      EXPECT_SAME_DOUBLE((*trace)[k].s, w.trace[k].s);
+    }
+  }
+}
+
+/// The run counters and the views (v_run_metrics, v_map, v_study_progress) of a study whose
+/// runs are want, with expectations computed from the generated records.
+void expect_counts_and_views(Store& store, const fs::path& db, const std::string& study,
+                             const std::vector<RunRecord>& want) {
+  const auto kRuns = static_cast<std::int64_t>(want.size());
+  std::int64_t failed = 0, metric_rows = 0, lugre_stage1 = 0;
+  for (const auto& w : want) {
+    failed += w.status != "ok";
+    metric_rows += std::max<std::int64_t>(1, static_cast<std::int64_t>(w.stages.size()));
+    lugre_stage1 += w.model == "lugre" && !w.stages.empty();
+  }
+  const auto counts = store.count_runs(study);
+  EXPECT_EQ(counts.total, kRuns);
+  EXPECT_EQ(counts.done, kRuns);
+  EXPECT_EQ(counts.failed, failed);
+  EXPECT_EQ(counts.ok, kRuns - failed);
+
+  RawDb raw(db);
+  const std::string q = "WHERE study_id = '" + study + "'";
+  EXPECT_EQ(raw.integer("SELECT count(*) FROM v_run_metrics " + q), metric_rows);
+  EXPECT_EQ(raw.integer("SELECT count(*) FROM v_run_metrics " + q + " AND stage IS NULL"),
+            kRuns / 7 + (kRuns % 7 > 3));  // invalid runs: one row, no stage
+  EXPECT_EQ(raw.integer("SELECT count(*) FROM v_map " + q + " AND model = 'lugre' AND stage = 1"),
+            lugre_stage1);
+  const auto progress =
+      raw.rows("SELECT total, done, failed FROM v_study_progress " + q);
+  ASSERT_EQ(progress.size(), 1u);
+  EXPECT_EQ(progress[0], (std::vector<std::string>{std::to_string(kRuns), std::to_string(kRuns),
+                                                   std::to_string(failed)}));
+  // One v_map row checked value by value, straight from SQLite.
+  const RunRecord& r = want[8];  // ok, 2 stages
+  ASSERT_EQ(r.stages.size(), 2u);
+  const std::string row = "FROM v_map " + q + " AND design_index = 8 AND stage = 2";
+  EXPECT_EQ(raw.text("SELECT model " + row), *r.model);
+  EXPECT_EQ(raw.text("SELECT status " + row), "ok");
+  EXPECT_SAME_DOUBLE(raw.real("SELECT amplitude " + row), r.stages[1].amplitude);
+  EXPECT_SAME_DOUBLE(raw.real("SELECT mean_force " + row), r.stages[1].mean_force);
+  EXPECT_SAME_DOUBLE(raw.real("SELECT va_over_vd " + row), *r.va_over_vd);
+  EXPECT_EQ(raw.text("SELECT va_over_vd FROM v_map " + q + " AND design_index = 0 AND stage = 1"),
+            "NULL");
+  EXPECT_EQ(raw.text("SELECT error FROM v_run_metrics " + q + " AND design_index = 3"),
+            "reason 3");
+  EXPECT_EQ(raw.text("PRAGMA integrity_check"), "ok");
+  EXPECT_TRUE(raw.rows("PRAGMA foreign_key_check").empty());
+}
+
 TEST_F(StoreTest, ThousandRunsRoundTripExactlyAndViewsAgree) {
   constexpr std::int64_t kRuns = 1000;
   const std::string study = make_study(kRuns);
@@ -63,65 +129,10 @@ TEST_F(StoreTest, ThousandRunsRoundTripExactlyAndViewsAgree) {
   for (std::size_t i = 0; i < want.size(); ++i) expect_same_run(want[i], got[i]);
 
   std::int64_t n_traces = 0;
-  for (const auto& w : want) {
-    const auto trace = store.get_trace(study, w.design_index);
-    ASSERT_EQ(trace.has_value(), !w.trace.empty()) << w.design_index;
-    if (!trace) continue;
-    ++n_traces;
-    ASSERT_EQ(trace->size(), w.trace.size());
-    for (std::size_t k = 0; k < trace->size(); ++k) {
-      EXPECT_SAME_DOUBLE((*trace)[k].t, w.trace[k].t);
-      EXPECT_SAME_DOUBLE((*trace)[k].F_d, w.trace[k].F_d);
-      EXPECT_SAME_DOUBLE((*trace)[k].F_f, w.trace[k].F_f);
-      EXPECT_SAME_DOUBLE((*trace)[k].x, w.trace[k].x);
-      EXPECT_SAME_DOUBLE((*trace)[k].v, w.trace[k].v);
-      EXPECT_SAME_DOUBLE((*trace)[k].s, w.trace[k].s);
-    }
-  }
+  ASSERT_NO_FATAL_FAILURE(expect_same_traces(store, study, want, &n_traces));
   EXPECT_EQ(n_traces, 100);
-
-  // Counts and views, with expectations computed from the generated records.
-  std::int64_t failed = 0, metric_rows = 0, lugre_stage1 = 0;
-  for (const auto& w : want) {
-    failed += w.status != "ok";
-    metric_rows += std::max<std::int64_t>(1, static_cast<std::int64_t>(w.stages.size()));
-    lugre_stage1 += w.model == "lugre" && !w.stages.empty();
-  }
-  const auto counts = store.count_runs(study);
-  EXPECT_EQ(counts.total, kRuns);
-  EXPECT_EQ(counts.done, kRuns);
-  EXPECT_EQ(counts.failed, failed);
-  EXPECT_EQ(counts.ok, kRuns - failed);
-
-  RawDb raw(db_);
-  const std::string q = "WHERE study_id = '" + study + "'";
-  EXPECT_EQ(raw.integer("SELECT count(*) FROM v_run_metrics " + q), metric_rows);
-  EXPECT_EQ(raw.integer("SELECT count(*) FROM v_run_metrics " + q + " AND stage IS NULL"),
-            kRuns / 7 + (kRuns % 7 > 3));  // invalid runs: one row, no stage
-  EXPECT_EQ(raw.integer("SELECT count(*) FROM v_map " + q + " AND model = 'lugre' AND stage = 1"),
-            lugre_stage1);
-  const auto progress =
-      raw.rows("SELECT total, done, failed FROM v_study_progress " + q);
-  ASSERT_EQ(progress.size(), 1u);
-  EXPECT_EQ(progress[0], (std::vector<std::string>{std::to_string(kRuns), std::to_string(kRuns),
-                                                   std::to_string(failed)}));
-  // One v_map row checked value by value, straight from SQLite.
-  const RunRecord& r = want[8];  // ok, 2 stages
-  ASSERT_EQ(r.stages.size(), 2u);
-  const std::string row = "FROM v_map " + q + " AND design_index = 8 AND stage = 2";
-  EXPECT_EQ(raw.text("SELECT model " + row), *r.model);
-  EXPECT_EQ(raw.text("SELECT status " + row), "ok");
-  EXPECT_SAME_DOUBLE(raw.real("SELECT amplitude " + row), r.stages[1].amplitude);
-  EXPECT_SAME_DOUBLE(raw.real("SELECT mean_force " + row), r.stages[1].mean_force);
-  EXPECT_SAME_DOUBLE(raw.real("SELECT va_over_vd " + row), *r.va_over_vd);
-  EXPECT_EQ(raw.text("SELECT va_over_vd FROM v_map " + q + " AND design_index = 0 AND stage = 1"),
-            "NULL");
-  EXPECT_EQ(raw.text("SELECT error FROM v_run_metrics " + q + " AND design_index = 3"),
-            "reason 3");
-  EXPECT_EQ(raw.text("PRAGMA integrity_check"), "ok");
-  EXPECT_TRUE(raw.rows("PRAGMA foreign_key_check").empty());
+  ASSERT_NO_FATAL_FAILURE(expect_counts_and_views(store, db_, study, want));
 }
-
 TEST_F(StoreTest, NanIsStoredAsNullAndNegativeZeroLosesItsSign) {
   const std::string study = make_study(1);
   RunRecord r = simple_run(study, 0);
