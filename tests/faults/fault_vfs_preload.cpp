@@ -9,8 +9,10 @@
 //   STICKSLIP_FAULT_VFS_ARM=signal  arm when the process receives SIGUSR2 (default: at start);
 //       SIGUSR1 disarms (the disk works again). Arming and disarming only store atomics, which a
 //       signal handler may do.
-// Without STICKSLIP_FAULT_VFS the library does nothing.
+// Each injected failure writes one line to stderr ("libstickslip_fault_vfs: injected KIND error
+// CODE at call N"). Without STICKSLIP_FAULT_VFS the library does nothing.
 #include <signal.h>
+#include <unistd.h>
 
 #include <cstdio>
 #include <cstdlib>
@@ -33,6 +35,16 @@ struct Plan {
 
 FaultVfs* g_vfs = nullptr;
 Plan g_plan;
+
+/// One line on stderr per injected failure, so that a test can count them:
+/// "libstickslip_fault_vfs: injected write error 778 at call 41".
+void log_injection(FaultKind kind, int code, long call) {
+  char line[128];
+  const int n = std::snprintf(line, sizeof line,
+                              "libstickslip_fault_vfs: injected %s error %d at call %ld\n",
+                              stickslip::testing::to_string(kind), code, call);
+  if (n > 0) (void)!::write(2, line, static_cast<std::size_t>(n));
+}
 
 void arm(int) { g_vfs->arm(g_plan.kind, g_plan.n, g_plan.persist, g_plan.code); }
 void disarm(int) { g_vfs->disarm(); }
@@ -69,6 +81,7 @@ __attribute__((constructor)) void install() {
     std::_Exit(99);
   }
   g_vfs = new FaultVfs;  // for the life of the process
+  g_vfs->on_inject(&log_injection);
   struct sigaction sa;
   std::memset(&sa, 0, sizeof sa);
   sa.sa_flags = SA_RESTART;

@@ -7,7 +7,8 @@
 //    study into it.
 // Each case then kills the server with kill -9 and checks the file against what the API and the
 // CLI confirmed (every confirmed run and job is there, integrity_check ok, no duplicates); then a
-// restart completes every job.
+// restart completes every job. The cases after the first run the study alone by default (their
+// subject is the study's writes); STICKSLIP_FAULTS_LONG=1 adds the diagnosis to each.
 //
 // The store's single-writer lock (store/writer_lock.h) and the retries of a busy store (issue 18
 // defect 3) are checked at the end: a lock held past the busy timeout, a second writer refused.
@@ -46,14 +47,17 @@ class OtherClients : public ::testing::Test {
     std::ofstream(p) << text;
     return p;
   }
-  /// A study (80 runs of 2 x 1 s) and the small diagnosis, submitted to d.
-  std::vector<Job> submit_jobs(Daemon& d, const std::string& tag) {
+  /// A study (80 runs of 2 x 1 s) and the small diagnosis, submitted to d. The diagnosis (about
+  /// 15 s of fitting) is left out of the cases whose subject is the study's writes unless
+  /// STICKSLIP_FAULTS_LONG=1 (diagnosis = false).
+  std::vector<Job> submit_jobs(Daemon& d, const std::string& tag, bool diagnosis = true) {
     std::vector<Job> jobs;
     jobs.push_back(testing::make_job("studies", tag + "-study",
                                      write(tag + "-study.json", testing::study_spec(tag, 40, 1.0))));
-    jobs.push_back(testing::make_job(
-        "diagnoses", tag + "-diagnosis",
-        write(tag + "-diagnosis.json", testing::diagnosis_body(dir_ / tag))));
+    if (diagnosis || testing::long_faults())
+      jobs.push_back(testing::make_job(
+          "diagnoses", tag + "-diagnosis",
+          write(tag + "-diagnosis.json", testing::diagnosis_body(dir_ / tag))));
     for (Job& job : jobs) testing::post_job(dir_.path(), d.url(), job);
     return jobs;
   }
@@ -137,7 +141,7 @@ TEST_F(OtherClients, ShellRawConnectionsAndReadOnlyCliWhileTheServerWorksLoseNot
 TEST_F(OtherClients, ExternalWriteLockShorterThanTheBusyTimeoutDelaysButNeverFailsAJob) {
   if (!have_sqlite3_shell()) GTEST_SKIP() << "no sqlite3 shell";
   Daemon d(dir_.path(), opts_);
-  std::vector<Job> jobs = submit_jobs(d, "short-lock");
+  std::vector<Job> jobs = submit_jobs(d, "short-lock", false);
   for (int k = 0; k < 2; ++k) {
     std::this_thread::sleep_for(500ms);
     // The shell holds the write lock for 2 s (the busy timeout is 5 s).
@@ -161,7 +165,7 @@ TEST_F(OtherClients, ExternalWriteLockShorterThanTheBusyTimeoutDelaysButNeverFai
 
 TEST_F(OtherClients, SecondServerAndStudyRunOnTheSameStoreLoseNothing) {
   Daemon first(dir_.path(), opts_);
-  std::vector<Job> jobs = submit_jobs(first, "second");
+  std::vector<Job> jobs = submit_jobs(first, "second", false);
   std::this_thread::sleep_for(500ms);
   poll(first, jobs);
   // A second server on the same file (it may refuse: the store has one writer).
@@ -210,7 +214,7 @@ TEST_F(OtherClients, SecondServerAndStudyRunOnTheSameStoreLoseNothing) {
 TEST_F(OtherClients, ExternalWriteLockLongerThanTheBusyTimeoutNeverFailsAJob) {
   if (!have_sqlite3_shell()) GTEST_SKIP() << "no sqlite3 shell";
   Daemon d(dir_.path(), opts_);
-  std::vector<Job> jobs = submit_jobs(d, "long-lock");
+  std::vector<Job> jobs = submit_jobs(d, "long-lock", false);
   std::this_thread::sleep_for(500ms);
   poll(d, jobs);
   const CommandResult lock = run_command(
@@ -226,7 +230,7 @@ TEST_F(OtherClients, ExternalWriteLockLongerThanTheBusyTimeoutNeverFailsAJob) {
 
 TEST_F(OtherClients, SecondWriterIsRefusedNamingTheServerThatHoldsTheStore) {
   Daemon first(dir_.path(), opts_);
-  std::vector<Job> jobs = submit_jobs(first, "refused");
+  std::vector<Job> jobs = submit_jobs(first, "refused", false);
   const std::string pid = std::to_string(first.process().pid());
   const CommandResult second = run_command(
       {kServerBin, "--db", db().string(), "--port", "0", "--threads", "1"}, dir_.path(), {}, 30s);

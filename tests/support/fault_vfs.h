@@ -84,6 +84,10 @@ class FaultVfs {
   /// Calls that failed so far, of every kind.
   long failures() const { return injected(FaultKind::kWrite) + injected(FaultKind::kSync) +
                                  injected(FaultKind::kLock); }
+  /// Called on every injected failure (from the failing call's thread), e.g. to log it.
+  using InjectHook = void (*)(FaultKind kind, int code, long call);
+  void on_inject(InjectHook hook) { hook_.store(hook); }
+
   void reset_counts() {
     disarm();
     for (auto& c : calls_) c.store(0);
@@ -115,7 +119,10 @@ class FaultVfs {
       }
     }
     if (code == 0 && kind != FaultKind::kLock) code = v.code_.load();
-    if (code != 0) v.injected_[k].fetch_add(1);
+    if (code != 0) {
+      v.injected_[k].fetch_add(1);
+      if (const InjectHook hook = v.hook_.load()) hook(kind, code, n);
+    }
     return code;
   }
 
@@ -189,6 +196,7 @@ class FaultVfs {
   std::atomic<int> arm_code_{0};
   std::array<std::atomic<long>, 3> calls_{};
   std::array<std::atomic<long>, 3> injected_{};
+  std::atomic<InjectHook> hook_{nullptr};
 };
 
 }  // namespace stickslip::testing
