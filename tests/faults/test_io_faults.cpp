@@ -26,6 +26,7 @@
 #include <functional>
 #include <map>
 #include <optional>
+#include <ostream>
 #include <set>
 #include <string>
 #include <vector>
@@ -303,6 +304,8 @@ struct Case {
   const char* name = "";
 };
 std::string case_name(const ::testing::TestParamInfo<Case>& info) { return info.param.name; }
+// GoogleTest prints a parameter in the test's CTest name: its name rather than its bytes.
+void PrintTo(const Case& c, std::ostream* os) { *os << c.name; }
 
 class StoreIoFaults : public ::testing::TestWithParam<Case> {
  protected:

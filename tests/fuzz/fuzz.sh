@@ -5,7 +5,7 @@
 #       instrumented for libFuzzer, AddressSanitizer and UndefinedBehaviorSanitizer) and builds the
 #       `fuzzers` target. The ordinary g++ build is not touched.
 #   fuzz.sh run SRC_DIR FUZZ_BUILD_DIR TARGET
-#       runs fuzz_TARGET for STICKSLIP_FUZZ_SECONDS seconds (default 30) on the seeds of
+#       runs fuzz_TARGET for STICKSLIP_FUZZ_SECONDS seconds (default 60) on the seeds of
 #       SRC_DIR/tests/fuzz/corpus/TARGET (read only) plus what earlier runs found (kept in
 #       FUZZ_BUILD_DIR/corpus/TARGET); a crash, leak, timeout or broken property fails it and
 #       leaves the input in FUZZ_BUILD_DIR/artifacts/TARGET/. The last line gives the number of
@@ -28,7 +28,7 @@ fi
 target=$4
 exe="$bin/tests/fuzz/fuzz_$target"
 [ -x "$exe" ] || { echo "fuzz.sh: $exe is missing (did fuzz.build run?)"; exit 1; }
-seconds=${STICKSLIP_FUZZ_SECONDS:-30}
+seconds=${STICKSLIP_FUZZ_SECONDS:-60}
 work="$bin/corpus/$target"
 artifacts="$bin/artifacts/$target"
 mkdir -p "$work" "$artifacts"
