@@ -25,19 +25,7 @@ using server::testing::Curl;
 using server::testing::curl;
 using server::testing::Daemon;
 using server::testing::slurp;
-
-/// A study of 2 models x n_va values of va_over_vd, two stages of `duration` s (adaptive).
-inline std::string study_spec(const std::string& name, int n_va, double duration) {
-  return nlohmann::json(
-             {{"name", name},
-              {"stages", {{{"duration", duration}}, {{"duration", duration}, {"f", 1500}}}},
-              {"design",
-               {{"type", "grid"},
-                {"axes",
-                 {{{"name", "model"}, {"values", {"dahl", "lugre"}}},
-                  {{"name", "va_over_vd"}, {"linspace", {0, 4, n_va}}}}}}}})
-      .dump(2);
-}
+using server::testing::study_json;
 
 /// The body of POST /v1/diagnoses for a small synthetic dataset (2 LuGre runs of 3 s at 250 Hz,
 /// one base model and one candidate with small budgets: tens of seconds on a busy machine).

@@ -80,7 +80,7 @@ TEST_F(Kills, ServerKilledAtRandomMomentsKeepsEveryConfirmedRunAndJobAndFinishes
   std::mt19937_64 rng(seed());
   // 80 runs of 2 x 1 s: several seconds of work; when a study is done another is submitted, so
   // any number of kills lands mid-study.
-  const std::string spec = testing::study_spec("kills", 40, 1.0);
+  const std::string spec = testing::study_json("kills", 40, 1.0);
   const fs::path spec_file = write("study.json", spec);
   std::vector<Job> jobs;
   jobs.push_back(testing::make_job("diagnoses", "kills-diagnosis",
@@ -140,7 +140,7 @@ std::int64_t last_progress(const std::string& err) {
 TEST_F(Kills, StudyRunKilledAtRandomMomentsKeepsEveryReportedRunAndResumes) {
   const long kills = kills_wanted();
   std::mt19937_64 rng(seed() + 1);
-  const std::string spec = testing::study_spec("cli-kills", 40, 1.0);
+  const std::string spec = testing::study_json("cli-kills", 40, 1.0);
   const fs::path spec_file = write("study.json", spec);
   const fs::path db = dir_ / "cli.db";
   const std::vector<std::string> argv = {kClientBin, "study", "run", spec_file.string(), "--db",

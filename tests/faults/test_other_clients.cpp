@@ -53,7 +53,7 @@ class OtherClients : public ::testing::Test {
   std::vector<Job> submit_jobs(Daemon& d, const std::string& tag, bool diagnosis = true) {
     std::vector<Job> jobs;
     jobs.push_back(testing::make_job("studies", tag + "-study",
-                                     write(tag + "-study.json", testing::study_spec(tag, 40, 1.0))));
+                                     write(tag + "-study.json", testing::study_json(tag, 40, 1.0))));
     if (diagnosis || testing::long_faults())
       jobs.push_back(testing::make_job(
           "diagnoses", tag + "-diagnosis",
@@ -174,7 +174,7 @@ TEST_F(OtherClients, SecondServerAndStudyRunOnTheSameStoreLoseNothing) {
                   port2.string(), "--threads", "1", "--diagnosis-threads", "1"},
                  (dir_ / "second").string());
   // `stickslip study run` of another study into the same file (it may refuse too).
-  const fs::path other = write("other.json", testing::study_spec("other", 10, 0.5));
+  const fs::path other = write("other.json", testing::study_json("other", 10, 0.5));
   Process cli({kClientBin, "study", "run", other.string(), "--db", db().string(), "--threads", "1"},
               (dir_ / "cli").string());
   for (int k = 0; k < 8; ++k) {
@@ -236,7 +236,7 @@ TEST_F(OtherClients, SecondWriterIsRefusedNamingTheServerThatHoldsTheStore) {
       {kServerBin, "--db", db().string(), "--port", "0", "--threads", "1"}, dir_.path(), {}, 30s);
   EXPECT_NE(second.code, 0) << "a second server started on a store another server holds";
   EXPECT_NE(second.err.find(pid), std::string::npos) << second.err;
-  const fs::path other = write("other.json", testing::study_spec("other", 4, 0.2));
+  const fs::path other = write("other.json", testing::study_json("other", 4, 0.2));
   const CommandResult cli = run_command(
       {kClientBin, "study", "run", other.string(), "--db", db().string()}, dir_.path(), {}, 60s);
   EXPECT_NE(cli.code, 0) << "study run wrote into a store a server holds";

@@ -68,7 +68,7 @@ class ServerFaults : public ::testing::Test {
   std::vector<Job> submit(Daemon& d, const std::string& tag, bool with_diagnosis) {
     std::vector<Job> jobs;
     jobs.push_back(testing::make_job("studies", tag + "-study",
-                                     write(tag + ".json", testing::study_spec(tag, 40, 1.0))));
+                                     write(tag + ".json", testing::study_json(tag, 40, 1.0))));
     if (with_diagnosis)
       jobs.push_back(testing::make_job("diagnoses", tag + "-diagnosis",
                                        write(tag + "-d.json", testing::diagnosis_body(dir_ / tag))));

@@ -12,6 +12,8 @@
 #include <thread>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "process.h"
 
 namespace stickslip::server::testing {
@@ -48,6 +50,20 @@ class Daemon {
   std::unique_ptr<Process> proc_;
   std::string url_;
 };
+
+/// A study spec of 2 models (dahl, lugre) x n_va values of va_over_vd in [0, 4], two stages of
+/// `duration` s each (the second with 1500 Hz vibration; adaptive integrator).
+inline std::string study_json(const std::string& name, int n_va, double duration) {
+  return nlohmann::json(
+             {{"name", name},
+              {"stages", {{{"duration", duration}}, {{"duration", duration}, {"f", 1500}}}},
+              {"design",
+               {{"type", "grid"},
+                {"axes",
+                 {{{"name", "model"}, {"values", {"dahl", "lugre"}}},
+                  {{"name", "va_over_vd"}, {"linspace", {0, 4, n_va}}}}}}}})
+      .dump(2);
+}
 
 struct Curl {
   int status = 0;

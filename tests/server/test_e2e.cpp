@@ -26,6 +26,7 @@ using nlohmann::json;
 using testing::CommandResult;
 using testing::Process;
 using testing::run_command;
+using testing::study_json;
 using testing::slurp;
 using testing::TempDir;
 
@@ -35,17 +36,6 @@ using testing::Daemon;
 using testing::kClientBin;
 using testing::kServerBin;
 
-/// A study of n_va x 2 models runs of two stages of `duration` s each (adaptive integrator).
-std::string study_json(const std::string& name, int n_va, double duration) {
-  return json({{"name", name},
-               {"stages", {{{"duration", duration}}, {{"duration", duration}, {"f", 1500}}}},
-               {"design",
-                {{"type", "grid"},
-                 {"axes",
-                  {{{"name", "model"}, {"values", {"dahl", "lugre"}}},
-                   {{"name", "va_over_vd"}, {"linspace", {0, 4, n_va}}}}}}}})
-      .dump(2);
-}
 
 json get_json(const fs::path& dir, const std::string& url) {
   const Curl c = curl(dir, {url});
