@@ -140,7 +140,10 @@ std::int64_t last_progress(const std::string& err) {
 TEST_F(Kills, StudyRunKilledAtRandomMomentsKeepsEveryReportedRunAndResumes) {
   const long kills = kills_wanted();
   std::mt19937_64 rng(seed() + 1);
-  const std::string spec = testing::study_json("cli-kills", 40, 1.0);
+  // 80 runs for the default 3 kills; more for more kills, so that the study is still running at
+  // the last one (each restart resumes it and computes for 0.2 to 1.5 s).
+  const int n_va = static_cast<int>(std::max<long>(40, 10 * kills));
+  const std::string spec = testing::study_json("cli-kills", n_va, 1.0);
   const fs::path spec_file = write("study.json", spec);
   const fs::path db = dir_ / "cli.db";
   const std::vector<std::string> argv = {kClientBin, "study", "run", spec_file.string(), "--db",
