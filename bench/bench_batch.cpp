@@ -22,7 +22,7 @@ SimConfig lane_cfg(ModelKind m, int i) {
   c.stages[1].duration = 0.1;
   c.integrator.kind = IntegratorKind::kRk4;
   c.integrator.dt = 1e-6;
-  c.friction.F_S = 11.1 - 0.01 * (i % 50);
+  c.friction["F_S"] = 11.1 - 0.01 * (i % 50);
   c.drive.k_d = 11700.0 * (1.0 + 0.001 * i);
   return c;
 }

@@ -25,7 +25,7 @@ int main(int argc, char** argv) {
       ->type_name("DIR");
   CLI11_PARSE(app, argc, argv);
   measured::SynthOptions o;
-  o.model = engine::SimConfig::seed(engine::ModelKind::kLuGre, 0.0);
+  o.model = engine::SimConfig::seed(engine::model_kind<engine::LuGre>, 0.0);
   o.model.extension.kind = engine::ExtensionKind::kViscous;
   o.model.extension.sigma2 = 30.0;
   for (double va : {0.0, 1.1e-3, 4e-3}) {

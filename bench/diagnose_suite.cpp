@@ -45,7 +45,7 @@ int main(int argc, char** argv) {
   if (time_sim) {  // cost of one fitting simulation per v_a
     for (double rtol : {1e-5, 1e-4, 1e-3})
       for (double va : {0.0, 1.5e-3, 5e-3}) {
-        engine::SimConfig c = engine::SimConfig::seed(engine::ModelKind::kLuGre, va);
+        engine::SimConfig c = engine::SimConfig::seed(engine::model_kind<engine::LuGre>, va);
         c.stages = {engine::Stage{3.5, 0.0, 1500}, engine::Stage{2.5, va, 1500}};
         c.integrator.rtol = c.integrator.atol = rtol;
         c.trace.rate = 4000;

@@ -131,8 +131,8 @@ int main(int argc, char** argv) {
   const double ref_dt = quick ? 5e-7 : 1e-7;
 
   std::vector<Case> cases;
-  for (ModelKind m : {ModelKind::kDahl, ModelKind::kKarnopp, ModelKind::kResetIntegrator,
-                      ModelKind::kLuGre})
+  for (ModelKind m : {model_kind<Dahl>, model_kind<Karnopp>, model_kind<ResetIntegrator>,
+                      model_kind<LuGre>})
     for (double v_a : {0.0, 4e-3}) {
       if (!only.empty()) {
         const std::string name = to_string(m);
@@ -157,8 +157,8 @@ int main(int argc, char** argv) {
 #pragma omp parallel for schedule(dynamic, 1)
   for (int i = 0; i < static_cast<int>(cases.size()); ++i) {
     SimConfig cfg = make_cfg(cases[i], stage_dur);
-    const bool event = cases[i].model == ModelKind::kKarnopp ||
-                       cases[i].model == ModelKind::kResetIntegrator;
+    const bool event = cases[i].model == model_kind<Karnopp> ||
+                       cases[i].model == model_kind<ResetIntegrator>;
     cfg.integrator.kind = event ? IntegratorKind::kRk4Event : IntegratorKind::kRk4;
     cfg.integrator.dt = ref_dt;
     const std::string path =
@@ -212,7 +212,7 @@ int main(int argc, char** argv) {
     {
       char s[32];
       std::snprintf(s, sizeof s, "dt=%g", ref_dt);
-      const bool event = c.model == ModelKind::kKarnopp || c.model == ModelKind::kResetIntegrator;
+      const bool event = c.model == model_kind<Karnopp> || c.model == model_kind<ResetIntegrator>;
       row(c, event ? "ref_rk4ev" : "ref_rk4", s, ref, ref_wall[i], std::nan(""), std::nan(""));
     }
     for (double dt : {4e-6, 2e-6, 1e-6}) {

@@ -26,8 +26,9 @@ int run_table(const TableArgs& a) {
     std::cerr << "stickslip table: " << e.what() << "\n";
     return kBadInput;
   }
-  const engine::ModelKind models[] = {engine::ModelKind::kDahl, engine::ModelKind::kKarnopp, engine::ModelKind::kResetIntegrator,
-                              engine::ModelKind::kLuGre};
+  const engine::ModelKind models[] = {
+      engine::model_kind<engine::Dahl>, engine::model_kind<engine::Karnopp>,
+      engine::model_kind<engine::ResetIntegrator>, engine::model_kind<engine::LuGre>};
   const double vas[] = {0.0, 0.2e-3, 1.1e-3, 4.0e-3};
   constexpr int kRuns = 16;
   std::vector<engine::SimConfig> cfgs(kRuns);

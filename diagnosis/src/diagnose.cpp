@@ -255,10 +255,10 @@ std::vector<std::size_t> longest_first(const std::vector<int>& rank) {
 /// simulation; Dahl three parameters).
 int calibration_rank(engine::ModelKind m) {
   switch (m) {
-    case engine::ModelKind::kLuGre: return 3;
-    case engine::ModelKind::kDahl: return 2;
-    case engine::ModelKind::kKarnopp: return 1;
-    case engine::ModelKind::kResetIntegrator: return 1;
+    case engine::model_kind<engine::LuGre>: return 3;
+    case engine::model_kind<engine::Dahl>: return 2;
+    case engine::model_kind<engine::Karnopp>: return 1;
+    case engine::model_kind<engine::ResetIntegrator>: return 1;
   }
   return 0;
 }

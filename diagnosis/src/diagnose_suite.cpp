@@ -89,11 +89,11 @@ measured::SynthOptions hidden_case_dataset(const HiddenCase& c, std::uint64_t se
   const bool full = family == SuiteDatasets::kFull, seed_cond = family == SuiteDatasets::kSeed;
   measured::SynthOptions o;
   o.name = c.name;
-  o.model = engine::SimConfig::seed(engine::ModelKind::kLuGre, 0.0);
+  o.model = engine::SimConfig::seed(engine::model_kind<engine::LuGre>, 0.0);
   // Base parameters 5-10 % off Table 1.
-  o.model.friction.F_S = 11.1 * 1.06;
-  o.model.friction.F_C = 8.3 * 0.95;
-  o.model.friction.v_s = 3.5e-4 * 0.92;
+  o.model.friction["F_S"] = 11.1 * 1.06;
+  o.model.friction["F_C"] = 8.3 * 0.95;
+  o.model.friction["v_s"] = 3.5e-4 * 0.92;
   o.model.extension.kind = c.kind;
   if (!c.param.empty()) engine::set_parameter(o.model, c.param, c.value);
   for (const auto& [name, value] : c.more) engine::set_parameter(o.model, name, value);
@@ -123,7 +123,7 @@ measured::SynthOptions hidden_case_dataset(const HiddenCase& c, std::uint64_t se
 
 DiagnoseOptions hidden_case_options(SuiteDatasets family) {
   DiagnoseOptions d;
-  if (family != SuiteDatasets::kFull) d.models = {engine::ModelKind::kLuGre};
+  if (family != SuiteDatasets::kFull) d.models = {engine::model_kind<engine::LuGre>};
   return d;
 }
 

@@ -17,6 +17,8 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <tuple>
+#include <type_traits>
 
 #include "integrators.h"
 #include "stickslip/engine/exp.h"
@@ -45,7 +47,10 @@ constexpr std::array<double, kStages> kE = {71.0 / 57600,      0.0,        -71.0
 template <class Model>
 struct SmoothSys {
   const Model& model;
+  using State = StateOf<Model>;
+  using Deriv = DerivOf<State>;
   using Mode = int;
+  const Model& base_model() const noexcept { return model; }
   Deriv eval(const Plant& p, double t, const State& y, Mode) const noexcept {
     return rhs(model, p, t, y, p.base_velocity(t));
   }
@@ -53,7 +58,20 @@ struct SmoothSys {
   Deriv eval_ub(const Plant& p, double t, const State& y, double ub) const noexcept {
     return rhs(model, p, t, y, ub);
   }
-  double lambda_ub(const State& y, double ub) const noexcept { return model.lambda(y.v - ub); }
+  /// The integrating-factor rate of s: lambda(v_r) or lambda(v_r, s); 0 (no factor) when the
+  /// model has neither.
+  double lambda_ub(const State& y, double ub) const noexcept {
+    if constexpr (requires { model.lambda(0.0); }) return model.lambda(y.v - ub);
+    else if constexpr (requires { model.lambda(0.0, 0.0); }) return model.lambda(y.v - ub, y.s);
+    else return 0.0;
+  }
+  /// The quasi-steady s about which the factor acts (s' = v_r - lambda s vanishes at v_r /
+  /// lambda), unless the model gives its own (s_eq(v_r, lambda)).
+  static constexpr bool kOwnSeq = requires(const Model& m) { m.s_eq(0.0, 0.0); };
+  double own_s_eq(double v_r, double lambda) const noexcept {
+    if constexpr (kOwnSeq) return model.s_eq(v_r, lambda);
+    else return v_r / lambda;
+  }
   static constexpr bool kEvents = false;
   /// v_r reverses inside the step: the kink of |v_r| and the Stribeck bump (width ~v_s) sit
   /// there, see the step limiter in adaptive().
@@ -67,25 +85,39 @@ struct SmoothSys {
 template <class H>
 struct HybridSys {
   const H& hyb;
+  using State = typename H::State;
+  using Deriv = DerivOf<State>;
   using Mode = typename H::Mode;
+  const auto& base_model() const noexcept { return hyb.m; }
   static Point point(const Plant& p, double t, const State& y) noexcept {
     return p.point(t, y.x, y.v);
   }
+  static constexpr bool kMore = requires(State s) { s.zs; };  // internal states beyond s
   Deriv eval(const Plant& p, double t, const State& y, Mode mode) const noexcept {
     const Point pt = point(p, t, y);
-    const FrictionEval fe = hyb.eval(mode, pt, y.s);
-    return {{y.v, (pt.F_d - fe.F_f) * p.m_inv, fe.ds}, pt.F_d, fe.F_f};
+    if constexpr (kMore) {
+      return frozen_deriv(p, pt, y, hyb.eval(mode, pt, internal_states(y)));
+    } else {
+      const FrictionEval fe = hyb.eval(mode, pt, y.s);
+      return {{y.v, (pt.F_d - fe.F_f) * p.m_inv, fe.ds}, pt.F_d, fe.F_f};
+    }
   }
   static constexpr bool kEvents = true;
   static constexpr bool kReversals = false;  // switches are located instead
   double event(const Plant& p, double t, const State& y, Mode mode, Mode* next) const noexcept {
-    return hyb.event(mode, point(p, t, y), y.s, next);
+    if constexpr (kMore) return hyb.event(mode, point(p, t, y), internal_states(y), next);
+    else return hyb.event(mode, point(p, t, y), y.s, next);
   }
   double event_at(const Point& pt, const State& y, Mode mode, Mode* next) const noexcept {
-    return hyb.event(mode, pt, y.s, next);
+    if constexpr (kMore) return hyb.event(mode, pt, internal_states(y), next);
+    else return hyb.event(mode, pt, y.s, next);
+  }
+  Mode classify(const Point& pt, const State& y) const noexcept {
+    if constexpr (kMore) return hyb.classify(pt, internal_states(y));
+    else return hyb.classify(pt, y.s);
   }
   Mode start_mode(const Plant& p, double t, State& y) const noexcept {
-    const Mode m = hyb.classify(point(p, t, y), y.s);
+    const Mode m = classify(point(p, t, y), y);
     hyb.on_enter(m, point(p, t, y), y, m);
     return m;
   }
@@ -96,131 +128,31 @@ struct HybridSys {
   }
 };
 
-struct StepOut {
+template <class State>
+struct StepOutT {
   State y;
-  Deriv k_end;  // f(y_new): first stage of the next step (FSAL)
-  double err;   // weighted error norm (<= 1 accepted)
+  DerivOf<State> k_end;  // f(y_new): first stage of the next step (FSAL)
+  double err;            // weighted error norm (<= 1 accepted)
 };
 
-/// Weights turning local errors into forces [N].
-struct ErrorScale {
+/// Weights turning local errors into forces [N]: x by k_d, x' by z_v, s by k_t (the model's
+/// error_weights) and, in a state with further internal states, those by k_zs.
+template <class State>
+struct ErrorScaleT {
   double k_d, z_v, k_t, inv_tol;
 };
-
-/// cos(x) and sin(x) for |x| <= 1 by their Taylor series (Horner in x^2).
-inline void small_sincos(double x, double* c_out, double* s_out) noexcept {
-  // |x| <= 1: the first omitted terms are x^20/20! < 4.2e-19 and x^19/19! < 8.3e-18.
-  const double x2 = x * x;
-  double c = kInvFactorial[18], sn = kInvFactorial[19];
-  for (int k = 16; k >= 0; k -= 2) {  // Horner in x^2, alternating signs
-    c = kInvFactorial[k] - x2 * c;
-    sn = kInvFactorial[k + 1] - x2 * sn;
-  }
-  *c_out = c;
-  *s_out = sn * x;
-}
-
-/// Base velocity and acceleration at t + th for many th inside one step (event location on the
-/// continuous extension): one sin/cos pair of the large phase, then small_sincos(w th). The
-/// glibc sin and cos of the large phase in every event evaluation were 41 % of the Karnopp run
-/// at 4 mm/s (perf).
-struct BaseInStep {
-  double c0 = 1.0, s0 = 0.0, w = 0.0, v_a = 0.0;
-  bool fast = false;  ///< w h <= 1 and no extension: the angle addition applies
-  BaseInStep(const Plant& p, double t, double h) : w(p.w), v_a(p.v_a) {
-    fast = p.v_a != 0.0 && p.ext == nullptr && p.w * h <= 1.0;
-    if (fast) {
-      c0 = std::cos(p.w * (t - p.t0));
-      s0 = std::sin(p.w * (t - p.t0));
-    }
-  }
-  /// The point at t + th (t: the step start given to the constructor).
-  Point point(const Plant& p, double t_abs, double th, const State& y) const noexcept {
-    if (!fast) return p.point(t_abs, y.x, y.v);
-    double c, sn;
-    small_sincos(w * th, &c, &sn);
-    const double cs = c0 * c - s0 * sn, ss = s0 * c + c0 * sn;
-    return {p.drive_force(t_abs, y.x), y.v - v_a * cs, -v_a * w * ss};
-  }
+template <int Z>
+struct ErrorScaleT<StateStorage<Z, true>> {
+  double k_d, z_v, k_t, inv_tol;
+  std::array<double, Z - 1> k_zs{};
 };
 
-/// Base velocity u' = v_a cos(w (t - t0)) at the seven stage times of a step, and the base
-/// acceleration at its start. One sin/cos pair of the (large) phase at the step start, then the
-/// angle-addition formula with cos/sin of the small stage offsets w c_i h by their Taylor
-/// series: the glibc cos of the large phase at every stage was 11 % of the run time (perf,
-/// LuGre at 4 mm/s). Where w h > 1 (never with the defaults: w dt_max = 0.94) each stage
-/// falls back to std::cos.
-struct BaseAtStages {
-  std::array<double, kStages> ub{};  ///< [m/s]
-  double ab0 = 0.0;                  ///< u'' at the step start [m/s^2]
+#include "adaptive_support.inc"  // (inside this anonymous namespace)
 
-  /// The step start t: ub[0] and ab0.
-  void start(const Plant& p, double t) noexcept {
-    if (p.v_a == 0.0) {
-      ub.fill(0.0);
-      ab0 = 0.0;
-      return;
-    }
-    const double th0 = p.w * (t - p.t0);
-    c0 = std::cos(th0);  // one sincos call (g++ fuses the two)
-    s0 = std::sin(th0);
-    ab0 = -p.v_a * p.w * s0;
-    ub[0] = p.v_a * c0;
-  }
-  /// The other stages of a step of length h from the t given to start().
-  void stages(const Plant& p, double t, double h) noexcept {
-    if (p.v_a == 0.0) return;
-    const double wh = p.w * h;
-    if (!(wh <= 1.0)) {
-      for (int i = 1; i < kStages; ++i) ub[i] = p.base_velocity(t + kC[i] * h);
-      return;
-    }
-    for (int i = 1; i < kStages; ++i) {
-      double c, sn;
-      small_sincos(wh * kC[i], &c, &sn);
-      ub[i] = p.v_a * (c0 * c - s0 * sn);
-    }
-  }
-
- private:
-  double c0 = 1.0, s0 = 0.0;
-};
-
-/// Dormand-Prince's continuous extension of order 4 (Hairer, Norsett & Wanner, Solving ODEs I,
-/// II.6; the coefficients of dopri5's CONTD5), for a plain (L = 0) step: y(t + theta h) from
-/// the stages of the step, no further right-hand-side evaluations.
-struct DenseStep {
-  State r1, r2, r3, r4, r5;
-  DenseStep(const State& y0, const State& y1, const std::array<State, kStages>& k, double h) {
-    constexpr double d[kStages] = {-12715105075.0 / 11282082432.0, 0.0,
-                                   87487479700.0 / 32700410799.0,  -10690763975.0 / 1880347072.0,
-                                   701980252875.0 / 199316789632.0,
-                                   -1453857185.0 / 822651844.0,    69997945.0 / 29380423.0};
-    auto comb = [&](double State::*f) {
-      double acc = 0.0;
-      for (int j = 0; j < kStages; ++j) acc += d[j] * (k[j].*f);
-      return h * acc;
-    };
-    for (double State::*f : {&State::x, &State::v, &State::s}) {
-      r1.*f = y0.*f;
-      r2.*f = y1.*f - y0.*f;
-      r3.*f = h * (k[0].*f) - r2.*f;
-      r4.*f = r2.*f - h * (k[6].*f) - r3.*f;
-      r5.*f = comb(f);
-    }
-  }
-  State at(double theta) const noexcept {
-    const double u = 1.0 - theta;
-    auto one = [&](double State::*f) {
-      return r1.*f + theta * (r2.*f + u * (r3.*f + theta * (r4.*f + u * (r5.*f))));
-    };
-    return {one(&State::x), one(&State::v), one(&State::s)};
-  }
-};
-
-template <class Sys>
+template <class Sys, class State = typename Sys::State, class Deriv = typename Sys::Deriv,
+          class StepOut = StepOutT<State>>
 StepOut dp5_step(const Sys& sys, const Plant& p, double t, const State& y, const Deriv& k1,
-                 double h, typename Sys::Mode mode, double L, const ErrorScale& es,
+                 double h, typename Sys::Mode mode, double L, const ErrorScaleT<State>& es,
                  const BaseAtStages* base = nullptr,
                  std::array<State, kStages>* k_out = nullptr, double s_eq = 0.0) {
   // Integrating factors e_i = exp(-L c_i h) (L = 0 -> plain Dormand-Prince), applied to the
@@ -232,6 +164,8 @@ StepOut dp5_step(const Sys& sys, const Plant& p, double t, const State& y, const
   std::array<Deriv, kStages> kd;
   kd[0] = k1;
   k[0] = {k1.d.x, k1.d.v, k1.d.s + L * u0};
+  constexpr bool kMore = requires(State s) { s.zs; };  // internal states beyond s (plain DP5)
+  if constexpr (kMore) k[0].zs = k1.d.zs;
   for (int i = 1; i < kStages; ++i) {
     State yi = y;
     double ss = 0.0;
@@ -241,6 +175,8 @@ StepOut dp5_step(const Sys& sys, const Plant& p, double t, const State& y, const
       yi.x += h * a * k[j].x;
       yi.v += h * a * k[j].v;
       ss += a * (ef[i] / ef[j]) * k[j].s;
+      if constexpr (kMore)
+        for (std::size_t q = 0; q < yi.zs.size(); ++q) yi.zs[q] += h * a * k[j].zs[q];
     }
     const double ui = ef[i] * u0 + h * ss;
     yi.s = s_eq + ui;
@@ -249,6 +185,7 @@ StepOut dp5_step(const Sys& sys, const Plant& p, double t, const State& y, const
     else
       kd[i] = sys.eval(p, t + kC[i] * h, yi, mode);
     k[i] = {kd[i].d.x, kd[i].d.v, kd[i].d.s + L * ui};
+    if constexpr (kMore) k[i].zs = kd[i].d.zs;
   }
   // Stage 7 is evaluated at the 5th-order solution (FSAL), so y_new is the stage-7 input.
   State y_new = y;
@@ -263,10 +200,24 @@ StepOut dp5_step(const Sys& sys, const Plant& p, double t, const State& y, const
   }
   y_new.s = s_eq + (ef[6] * u0 + h * ss);
   if (k_out) *k_out = k;
-  const double err = std::max({es.k_d * std::fabs(h * ex), es.z_v * std::fabs(h * ev),
-                               es.k_t * std::fabs(h * esum)}) *
-                     es.inv_tol;
-  return {y_new, kd[6], err};
+  if constexpr (kMore) {
+    double e = std::max({es.k_d * std::fabs(h * ex), es.z_v * std::fabs(h * ev),
+                         es.k_t * std::fabs(h * esum)});
+    for (std::size_t q = 0; q < y.zs.size(); ++q) {
+      double ez = 0.0;
+      for (int j = 0; j < kStages; ++j) {
+        y_new.zs[q] += h * kB[j] * k[j].zs[q];
+        ez += kE[j] * k[j].zs[q];
+      }
+      e = std::max(e, es.k_zs[q] * std::fabs(h * ez));
+    }
+    return {y_new, kd[6], e * es.inv_tol};
+  } else {
+    const double err = std::max({es.k_d * std::fabs(h * ex), es.z_v * std::fabs(h * ev),
+                                 es.k_t * std::fabs(h * esum)}) *
+                       es.inv_tol;
+    return {y_new, kd[6], err};
+  }
 }
 
 // PI step-size controller exponents for the order-5 error estimate: Hairer's dopri5 values
@@ -286,18 +237,29 @@ constexpr double kAlpha = 0.2 - 0.75 * kBeta;
 constexpr double kGoldenFrac = 0.6180339887498949;
 constexpr double kLogErrFloor = -9.210340371976184;  // log(1e-4): floor of the PI memory
 
+/// y: the state at t = 0 (the model's initial_state).
 template <class Sys>
-void adaptive(RunContext& ctx, const Sys& sys, const ErrorScale& es) {
+void adaptive(RunContext& ctx, const Sys& sys, const ErrorScaleT<typename Sys::State>& es,
+              typename Sys::State y) {
+  using State = typename Sys::State;
+  using Deriv = typename Sys::Deriv;
+  using StepOut = StepOutT<State>;
   const IntegratorOptions& opt = ctx.cfg.integrator;
-  State y{};
   double h = std::min(opt.dt, opt.dt_max);
+  const auto& model = sys.base_model();
+  constexpr bool kPrimaryHook = HasPrimaryState<std::remove_cvref_t<decltype(model)>>;
   drive_stages(ctx, y, &h, [&](const Plant& p, double t0, double t1, StageAccumulator& acc) {
     double t = t0;
     typename Sys::Mode mode = sys.start_mode(p, t, y);
     Deriv k1 = sys.eval(p, t, y, mode);
     auto record = [&](double tt, const Deriv& d) {
       acc.sample(tt, d.F_d, d.F_f);
-      if (ctx.trace.active()) ctx.trace.add({tt, d.F_d, d.F_f, y.x, y.v, y.s});
+      if constexpr (kPrimaryHook) {
+        if (ctx.trace.active())
+          ctx.trace.add({tt, d.F_d, d.F_f, y.x, y.v, primary_state(model, y)});
+      } else {
+        if (ctx.trace.active()) ctx.trace.add({tt, d.F_d, d.F_f, y.x, y.v, y.s});
+      }
     };
     record(t, k1);
     int zero_switches = 0;
@@ -378,7 +340,11 @@ void adaptive(RunContext& ctx, const Sys& sys, const ErrorScale& es) {
         const double lam = sys.lambda_ub(y, base.ub[0]);
         L = std::min(lam, 600.0 / hh);
         if (L * hh < kLawsonMin) L = 0.0;
-        if (L > 0.0) s_eq = vr0 / lam;
+        if constexpr (Sys::kOwnSeq) {
+          if (L > 0.0) s_eq = sys.own_s_eq(vr0, lam);
+        } else {
+          if (L > 0.0) s_eq = vr0 / lam;
+        }
       }
       StepOut out = dp5_step(sys, p, t, y, k1, hh, mode, L, es, &base,
                              Sys::kEvents ? &kst : nullptr, s_eq);
@@ -412,7 +378,7 @@ void adaptive(RunContext& ctx, const Sys& sys, const ErrorScale& es) {
           // extension's error (~ the local error) can put that point a hair before the event
           // of the real step fires; a secant from there moves it past, and if that fails too
           // the switch is located on real steps as before.
-          const DenseStep dense(y, out.y, kst, hh);
+          const DenseStep<State> dense(y, out.y, kst, hh);
           const BaseInStep bis(p, t, hh);
           auto yd_event = [&](double th) {
             const State o = dense.at(th / hh);
@@ -509,35 +475,25 @@ void adaptive(RunContext& ctx, const Sys& sys, const ErrorScale& es) {
 
 void run_adaptive(RunContext& ctx) {
   const SimConfig& c = ctx.cfg;
-  const FrictionParams& fp = c.friction;
-  const double f_ref = std::max(fp.F_S, fp.F_C);
-  const double inv_tol = 1.0 / (c.integrator.atol + c.integrator.rtol * f_ref);
-  const double z_contact = std::sqrt(fp.k_t * c.drive.m);  // contact impedance [N s/m]
-  const double z_drive = std::sqrt(c.drive.k_d * c.drive.m);
-  switch (c.model) {
-    case ModelKind::kDahl: {
-      const Dahl m(fp);
-      adaptive(ctx, SmoothSys<Dahl>{m}, ErrorScale{c.drive.k_d, z_contact, fp.k_t, inv_tol});
-      break;
+  visit_model(c.model, [&]<class M>(std::type_identity<M>) {
+    const M model = make_model<M>(c);
+    ctx.guard = make_guard(c, model);
+    ctx.primary = primary_state_fn(model);
+    const double f_ref = force_scale(c, model);
+    const double inv_tol = 1.0 / (c.integrator.atol + c.integrator.rtol * f_ref);
+    const auto w = model.error_weights(c.drive);
+    ErrorScaleT<StateOf<M>> es{c.drive.k_d, w.v, 0.0, inv_tol};  // no internal state: s stays 0
+    if constexpr (M::kStates > 0) es.k_t = w.z[0];
+    if constexpr (M::kStates > 1)
+      for (int q = 0; q < M::kStates - 1; ++q) es.k_zs[q] = w.z[q + 1];
+    if constexpr (M::kInfo.model_class == ModelClass::kSwitching) {
+      const typename M::Hybrid h(model, c.drive);
+      adaptive(ctx, HybridSys<typename M::Hybrid>{h}, es, initial_state(model, c.drive));
+    } else {
+      const auto scalar = scalar_form(model);
+      adaptive(ctx, SmoothSys<decltype(scalar)>{scalar}, es, initial_state(model, c.drive));
     }
-    case ModelKind::kLuGre: {
-      const ScalarLuGre m(fp);
-      adaptive(ctx, SmoothSys<ScalarLuGre>{m},
-               ErrorScale{c.drive.k_d, z_contact, fp.k_t, inv_tol});
-      break;
-    }
-    case ModelKind::kKarnopp: {
-      const KarnoppHybrid h{Karnopp(fp), c.drive.m};
-      adaptive(ctx, HybridSys<KarnoppHybrid>{h}, ErrorScale{c.drive.k_d, z_drive, 0.0, inv_tol});
-      break;
-    }
-    case ModelKind::kResetIntegrator: {
-      const ResetHybrid h{ResetIntegrator(fp)};
-      const double z = std::sqrt((1.0 + fp.alpha) * fp.k_t * c.drive.m);
-      adaptive(ctx, HybridSys<ResetHybrid>{h}, ErrorScale{c.drive.k_d, z, fp.k_t, inv_tol});
-      break;
-    }
-  }
+  });
 }
 
 }  // namespace stickslip::engine::detail

@@ -5,7 +5,7 @@
 #include <cstdio>
 #include <optional>
 
-#include "batch_kernel.h"
+#include "batch_chunk.h"
 
 namespace stickslip::engine {
 namespace {
@@ -41,6 +41,10 @@ std::optional<InvalidParameter> incompatibility(const std::vector<SimConfig>& cf
                               "lane " + std::to_string(i) +
                                   ": batch mode runs the base models only, without a catalogue "
                                   "extension (use simulate())");
+    if (const char* why = model_traits(c.model).info->scalar_only)
+      return InvalidParameter("model", to_string(c.model),
+                              "lane " + std::to_string(i) + ": no batched kernel (" + why +
+                                  "); run it with simulate()");
     if (!ref_index) {
       ref_index = i;
       continue;
@@ -51,6 +55,15 @@ std::optional<InvalidParameter> incompatibility(const std::vector<SimConfig>& cf
     if (c.model != a.model)
       return InvalidParameter("model", to_string(c.model),
                               lane_why(i, r, to_string(a.model), grid));
+    if constexpr (!kFrictionOptions.empty()) {
+      for (std::size_t k = 0; k < kFrictionOptions.size(); ++k) {
+        const char* name = kFrictionOptions[k].name;
+        if (c.friction.option_at(k) != a.friction.option_at(k))
+          return InvalidParameter(name, get_option(c, name),
+                                  lane_why(i, r, get_option(a, name),
+                                           "a batch shares the model and its options"));
+      }
+    }
     if (c.integrator.dt != a.integrator.dt)
       return InvalidParameter("dt", c.integrator.dt, lane_why(i, r, num(a.integrator.dt), grid));
     if (c.metrics.settle_fraction != a.metrics.settle_fraction)
@@ -75,24 +88,13 @@ std::optional<InvalidParameter> incompatibility(const std::vector<SimConfig>& cf
 }
 
 void construct_model(const SimConfig& c) {
-  switch (c.model) {
-    case ModelKind::kDahl: (void)Dahl(c.friction); break;
-    case ModelKind::kKarnopp: (void)Karnopp(c.friction); break;
-    case ModelKind::kResetIntegrator: (void)ResetIntegrator(c.friction); break;
-    case ModelKind::kLuGre: (void)LuGre(c.friction); break;
-  }
+  visit_model(c.model, [&]<class M>(std::type_identity<M>) { (void)make_model<M>(c); });
 }
 
 }  // namespace
 
 int batch_chunk_lanes(ModelKind model) noexcept {
-  switch (model) {
-    case ModelKind::kLuGre: return detail::kLanesLuGre;
-    case ModelKind::kKarnopp: return detail::kLanesKarnopp;
-    case ModelKind::kDahl: return detail::kLanesDahl;
-    case ModelKind::kResetIntegrator: return detail::kLanesReset;
-  }
-  return 1;
+  return model_traits(model).info->scalar_only ? 1 : detail::kBatchLanes;
 }
 
 bool batch_compatible(const std::vector<SimConfig>& cfgs, std::string* error) {
@@ -130,12 +132,7 @@ std::vector<SimResult> simulate_batch(const std::vector<SimConfig>& cfgs) {
       io.cfg[j] = &cfgs[lanes[first + j]];
       io.out[j] = &results[lanes[first + j]];
     }
-    switch (io.cfg[0]->model) {
-      case ModelKind::kLuGre: detail::run_chunk_lugre(io); break;
-      case ModelKind::kKarnopp: detail::run_chunk_karnopp(io); break;
-      case ModelKind::kDahl: detail::run_chunk_dahl(io); break;
-      case ModelKind::kResetIntegrator: detail::run_chunk_reset(io); break;
-    }
+    detail::run_batched_chunk(io.cfg[0]->model, io);
   }
   return results;
 }

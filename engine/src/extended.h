@@ -1,35 +1,28 @@
 #pragma once
-// Internal: how the catalogue extensions (stickslip/engine/extensions.h) enter the friction
-// evaluation. Kept apart from system.h so that the base models' path stays as it was: a Plant
+// Internal: the run-time state of a catalogue extension (stickslip/engine/extensions.h). A Plant
 // without an ExtRuntime (the default) never reaches this code.
 //
 // Each extension reduces, at one instant, to
 //   level  multiplier of the friction level (waviness, drift, normal load) [-]
 //   dFS    addition to the static friction force (dwell time) [N]
 //   sigma2 viscous coefficient [N s/m], delta the Stribeck exponent, c_d the drive damping
-// and the per-model functions below apply them with the same operation order as the base
-// models, so that neutral sizes reproduce the base model bit for bit.
+// and each model's eval_ext (models/*.h) applies them with the same operation order as its base
+// law, so that neutral sizes reproduce the base model bit for bit.
 
 #include <cmath>
 
 #include "stickslip/engine/extensions.h"
-#include "stickslip/engine/models.h"
+#include "stickslip/engine/model_api.h"
 
 namespace stickslip::engine::detail {
 
-/// Modulation of the friction law at one instant.
-struct Mod {
-  double level = 1.0;  ///< friction-level multiplier [-]
-  double dFS = 0.0;    ///< static friction increase [N]
-};
-
 /// Per-run extension state: the parameters, reduced to what the evaluation needs, plus the
-/// stick clock for dwell_time (updated after every accepted integrator step).
-struct ExtRuntime {
+/// stick clock for dwell_time (updated after every accepted integrator step). The EffectTerms
+/// base holds the effective sigma2 (0 unless kind == viscous) and Stribeck exponent delta (2
+/// unless stribeck_shape) that the models' eval_ext read.
+struct ExtRuntime : EffectTerms {
   ExtensionKind kind = ExtensionKind::kNone;
   Extension e;
-  double sigma2 = 0.0;  ///< effective viscous coefficient (0 unless kind == viscous) [N s/m]
-  double delta = 2.0;   ///< effective Stribeck exponent [-]
   double c_d = 0.0;     ///< effective drive damping [N s/m]
   double two_pi_over_lambda = 0.0;  ///< waviness wavenumber [1/m]
   double t_slip = 0.0;  ///< last time |v_r| > dwell_v [s]
@@ -61,55 +54,7 @@ struct ExtRuntime {
     }
     return m;
   }
-
-  /// Stribeck factor exp(-|v_r/v_s|^delta); the seed's exp(-(v_r/v_s)^2) for delta = 2.
-  double stribeck(const LuGre& l, double v_r) const noexcept {
-    if (delta == 2.0) return l.stribeck(v_r);
-    const double q = std::pow(std::fabs(v_r) / l.v_s, delta);
-    return q > 745.0 ? 0.0 : std::exp(-q);
-  }
 };
-
-// ---- the four models with an extension (same formulas and operation order as models.h) ------
-
-inline FrictionEval eval_ext(const Dahl& d, const ExtRuntime& r, const Mod& m, double v_r,
-                             double s, double F_d) noexcept {
-  FrictionEval fe;
-  if (m.level == 1.0) {
-    fe = d(v_r, s, F_d);
-  } else {
-    Dahl dd = d;
-    dd.F_C = d.F_C * m.level;
-    dd.k_over_FC = dd.k_t / dd.F_C;
-    fe = dd(v_r, s, F_d);
-  }
-  fe.F_f += r.sigma2 * v_r;
-  return fe;
-}
-
-inline FrictionEval eval_ext(const Karnopp& k, const ExtRuntime& r, const Mod& m, double v_r,
-                             double /*s*/, double F_d) noexcept {
-  const double F_S = m.level * (k.F_S + m.dFS);
-  if (std::fabs(v_r) <= k.DV) return {std::fmin(std::fmax(F_d, -F_S), F_S), 0.0};
-  return {(m.level * k.F_slip + r.sigma2 * std::fabs(v_r)) * sgn(v_r), 0.0};
-}
-
-inline FrictionEval eval_ext(const ResetIntegrator& ri, const ExtRuntime& r, const Mod& m,
-                             double v_r, double s, double /*F_d*/) noexcept {
-  const bool held = (v_r < 0.0 && s <= -ri.s0) || (v_r > 0.0 && s >= ri.s0);
-  const double ds = held ? 0.0 : v_r;
-  const double a = std::fabs(s) < ri.s0 ? ri.alpha + m.dFS / (ri.k_t * ri.s0) : 0.0;
-  return {m.level * ((1.0 + a) * ri.k_t * s + ri.beta * ds) + r.sigma2 * v_r, ds};
-}
-
-inline FrictionEval eval_ext(const LuGre& l, const ExtRuntime& r, const Mod& m, double v_r,
-                             double s, double /*F_d*/) noexcept {
-  const double e = r.stribeck(l, v_r);
-  const double F_C = l.F_C * m.level, F_S = (l.F_S + m.dFS) * m.level;
-  const double g_kt = F_C + (F_S - F_C) * e;
-  const double ds = v_r - std::fabs(v_r) * l.k_t * s / g_kt;
-  return {l.k_t * s + l.h_t * e * ds + l.h_v * v_r + r.sigma2 * v_r, ds};
-}
 
 /// The force sensor of sensor_dynamics: y'' + 2 zeta wn y' + wn^2 y = wn^2 u, driven by the
 /// true F_d u(t), taken as piecewise linear between the integrator's steps. Integrated by

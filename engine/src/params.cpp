@@ -3,77 +3,44 @@
 #include <cmath>
 #include <cstdio>
 #include <functional>
-#include <sstream>
 
 namespace stickslip::engine {
 namespace {
 
-std::string fmt(double v) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%.17g", v);
-  return buf;
-}
-
-// Domain of a scalar parameter. Every one must be finite.
-enum class Domain { kPositive, kNonNegative, kAny, kFraction };
-
+// The configuration's own scalar fields (the friction parameters come from the registry).
 struct Field {
   const char* name;
-  Domain domain;
-  std::function<double&(SimConfig&)> ref;
-  const char* unit;
+  Interval allowed;
+  double& (*ref)(SimConfig&);
 };
 
 const std::vector<Field>& fields() {
   static const std::vector<Field> kFields = {
-      {"m", Domain::kPositive, [](SimConfig& c) -> double& { return c.drive.m; }, "kg"},
-      {"k_d", Domain::kPositive, [](SimConfig& c) -> double& { return c.drive.k_d; }, "N/m"},
-      {"v_d", Domain::kPositive, [](SimConfig& c) -> double& { return c.drive.v_d; }, "m/s"},
-      {"F_z", Domain::kPositive, [](SimConfig& c) -> double& { return c.drive.F_z; }, "N"},
-      {"k_t", Domain::kPositive, [](SimConfig& c) -> double& { return c.friction.k_t; }, "N/m"},
-      {"kappa", Domain::kPositive, [](SimConfig& c) -> double& { return c.friction.kappa; }, "-"},
-      {"F_C", Domain::kPositive, [](SimConfig& c) -> double& { return c.friction.F_C; }, "N"},
-      {"F_slip", Domain::kPositive, [](SimConfig& c) -> double& { return c.friction.F_C; }, "N"},
-      {"F_S", Domain::kPositive, [](SimConfig& c) -> double& { return c.friction.F_S; }, "N"},
-      {"DV", Domain::kPositive, [](SimConfig& c) -> double& { return c.friction.DV; }, "m/s"},
-      {"beta", Domain::kNonNegative, [](SimConfig& c) -> double& { return c.friction.beta; },
-       "N s/m"},
-      {"s0", Domain::kPositive, [](SimConfig& c) -> double& { return c.friction.s0; }, "m"},
-      {"alpha", Domain::kNonNegative, [](SimConfig& c) -> double& { return c.friction.alpha; },
-       "-"},
-      {"h_t", Domain::kNonNegative, [](SimConfig& c) -> double& { return c.friction.h_t; },
-       "N s/m"},
-      {"h_v", Domain::kNonNegative, [](SimConfig& c) -> double& { return c.friction.h_v; },
-       "N s/m"},
-      {"v_s", Domain::kPositive, [](SimConfig& c) -> double& { return c.friction.v_s; }, "m/s"},
-      {"dt", Domain::kPositive, [](SimConfig& c) -> double& { return c.integrator.dt; }, "s"},
-      {"rtol", Domain::kPositive, [](SimConfig& c) -> double& { return c.integrator.rtol; }, "-"},
-      {"atol", Domain::kPositive, [](SimConfig& c) -> double& { return c.integrator.atol; }, "N"},
-      {"dt_max", Domain::kPositive, [](SimConfig& c) -> double& { return c.integrator.dt_max; },
-       "s"},
-      {"settle_fraction", Domain::kFraction,
-       [](SimConfig& c) -> double& { return c.metrics.settle_fraction; }, "-"},
-      {"cycle_threshold", Domain::kPositive,
-       [](SimConfig& c) -> double& { return c.metrics.cycle_threshold; }, "N"},
+      {"m", kPositive, [](SimConfig& c) -> double& { return c.drive.m; }},
+      {"k_d", kPositive, [](SimConfig& c) -> double& { return c.drive.k_d; }},
+      {"v_d", kPositive, [](SimConfig& c) -> double& { return c.drive.v_d; }},
+      {"F_z", kPositive, [](SimConfig& c) -> double& { return c.drive.F_z; }},
+      {"dt", kPositive, [](SimConfig& c) -> double& { return c.integrator.dt; }},
+      {"rtol", kPositive, [](SimConfig& c) -> double& { return c.integrator.rtol; }},
+      {"atol", kPositive, [](SimConfig& c) -> double& { return c.integrator.atol; }},
+      {"dt_max", kPositive, [](SimConfig& c) -> double& { return c.integrator.dt_max; }},
+      {"settle_fraction", kFraction,
+       [](SimConfig& c) -> double& { return c.metrics.settle_fraction; }},
+      {"cycle_threshold", kPositive,
+       [](SimConfig& c) -> double& { return c.metrics.cycle_threshold; }},
   };
   return kFields;
 }
 
-void check_domain(std::string_view name, double v, Domain d) {
-  if (!std::isfinite(v)) throw InvalidParameter(std::string(name), v, "must be a finite number");
-  switch (d) {
-    case Domain::kPositive:
-      if (!(v > 0)) throw InvalidParameter(std::string(name), v, "must be > 0");
-      break;
-    case Domain::kNonNegative:
-      if (!(v >= 0)) throw InvalidParameter(std::string(name), v, "must be >= 0");
-      break;
-    case Domain::kFraction:
-      if (!(v >= 0 && v < 1)) throw InvalidParameter(std::string(name), v, "must be in [0, 1)");
-      break;
-    case Domain::kAny:
-      break;
-  }
+const Field* find_field(std::string_view name) {
+  for (const auto& f : fields())
+    if (name == f.name) return &f;
+  return nullptr;
+}
+
+void check(std::string_view name, double v, const Interval& allowed) {
+  if (std::string why = allowed.why_not(v); !why.empty())
+    throw InvalidParameter(std::string(name), v, why);
 }
 
 // "stage<i>.<field>" -> (index from 0, field). Returns false when name has another shape.
@@ -100,32 +67,85 @@ void require_stage(const SimConfig& c, std::string_view name, std::size_t i, dou
                                std::to_string(c.stages.size()) + " stage(s)");
 }
 
+// The model-level checks of IsValid: constraints, integrator, effects.
+void check_model_choice(const SimConfig& c, const std::function<void(const std::string&)>& fail) {
+  const ModelTraits& t = model_traits(c.model);
+  for (const Constraint& k : t.constraints) {
+    const double a = c.friction[k.param], b = c.friction[k.at_least];
+    if (std::isfinite(a) && std::isfinite(b) && a < b)
+      fail(std::string(k.param) + " = " + format_number(a) + ": must be >= " + k.at_least +
+           " = " + format_number(b));
+  }
+  if (!t.accepts(static_cast<int>(c.integrator.kind))) {
+    std::string accepted;
+    for (auto k : {IntegratorKind::kRk4, IntegratorKind::kRk4Event, IntegratorKind::kAdaptive})
+      if (t.accepts(static_cast<int>(k)))
+        accepted += (accepted.empty() ? "" : ", ") + std::string(to_string(k));
+    fail(std::string("integrator = \"") + to_string(c.integrator.kind) + "\": model " +
+         t.info->name + " does not run with it (accepts " + accepted + ")");
+  }
+  if (c.extension.active() && !t.info->effects)
+    fail(std::string("effect = \"") + to_string(c.extension.kind) + "\": model " + t.info->name +
+         " supports no catalogue effect");
+}
+
 }  // namespace
 
+std::string format_number(double v) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.17g", v);
+  return buf;
+}
+
 InvalidParameter::InvalidParameter(std::string field, double value, const std::string& why)
-    : std::invalid_argument(field + " = " + fmt(value) + ": " + why), field_(std::move(field)) {}
+    : std::invalid_argument(field + " = " + format_number(value) + ": " + why),
+      field_(std::move(field)) {}
 InvalidParameter::InvalidParameter(std::string field, const std::string& value,
                                    const std::string& why)
     : std::invalid_argument(field + " = \"" + value + "\": " + why), field_(std::move(field)) {}
 
-const char* to_string(ModelKind m) noexcept {
-  switch (m) {
-    case ModelKind::kDahl: return "dahl";
-    case ModelKind::kKarnopp: return "karnopp";
-    case ModelKind::kResetIntegrator: return "reset_integrator";
-    case ModelKind::kLuGre: return "lugre";
-  }
-  return "?";
+// ------------------------------------------------------------------ FrictionParams
+
+FrictionParams::FrictionParams() noexcept {
+  for (std::size_t i = 0; i < values_.size(); ++i) values_[i] = kFrictionParameters[i].def;
+  for (std::size_t i = 0; i < options_.size(); ++i) options_[i] = kFrictionOptions[i].def;
 }
 
-ModelKind model_from_string(std::string_view name) {
-  if (name == "dahl") return ModelKind::kDahl;
-  if (name == "karnopp") return ModelKind::kKarnopp;
-  if (name == "reset_integrator") return ModelKind::kResetIntegrator;
-  if (name == "lugre") return ModelKind::kLuGre;
-  throw InvalidParameter("model", std::string(name),
-                         "unknown model; expected one of dahl, karnopp, reset_integrator, lugre");
+double& FrictionParams::operator[](std::string_view name) {
+  const int i = friction_parameter_index(name);
+  if (i < 0)
+    throw InvalidParameter(std::string(name), std::string(name), "unknown friction parameter");
+  return values_[static_cast<std::size_t>(i)];
 }
+
+double FrictionParams::operator[](std::string_view name) const {
+  return const_cast<FrictionParams&>(*this)[name];
+}
+
+int FrictionParams::option(std::string_view name) const {
+  const int i = friction_option_index(name);
+  if (i < 0) throw InvalidParameter(std::string(name), std::string(name), "unknown model option");
+  return options_[static_cast<std::size_t>(i)];
+}
+
+void FrictionParams::set_option(std::string_view name, std::string_view choice) {
+  const int i = friction_option_index(name);
+  if (i < 0 || kFrictionOptions.empty())
+    throw InvalidParameter(std::string(name), std::string(choice), "unknown model option");
+  const OptionDef& d = kFrictionOptions[static_cast<std::size_t>(i)];
+  std::string all;
+  for (std::size_t k = 0; k < d.choices.size(); ++k) {
+    if (choice == d.choices[k]) {
+      options_[static_cast<std::size_t>(i)] = static_cast<int>(k);
+      return;
+    }
+    all += (k ? ", " : "") + std::string(d.choices[k]);
+  }
+  throw InvalidParameter(std::string(name), std::string(choice), "expected one of " + all);
+}
+
+
+// ------------------------------------------------------------------ SimConfig
 
 const char* to_string(IntegratorKind k) noexcept {
   switch (k) {
@@ -164,38 +184,36 @@ bool SimConfig::IsValid(std::vector<std::string>* errors) const {
     if (errors) errors->push_back(msg);
   };
   SimConfig copy = *this;
-  for (const auto& f : fields()) {
-    try {
-      check_domain(f.name, f.ref(copy), f.domain);
-    } catch (const InvalidParameter& e) {
-      if (std::string_view(f.name) != "F_slip") fail(e.what());  // alias of F_C
-    }
-  }
-  const auto& fr = friction;
-  const bool uses_fs = model == ModelKind::kKarnopp || model == ModelKind::kLuGre;
-  if (uses_fs && std::isfinite(fr.F_S) && std::isfinite(fr.F_C) && fr.F_S < fr.F_C)
-    fail("F_S = " + fmt(fr.F_S) + ": must be >= F_C = " + fmt(fr.F_C));
+  for (const auto& f : fields())
+    if (std::string why = f.allowed.why_not(f.ref(copy)); !why.empty())
+      fail(std::string(f.name) + " = " + format_number(f.ref(copy)) + ": " + why);
+  for (std::size_t i = 0; i < kFrictionParameters.size(); ++i)
+    if (std::string why = kFrictionParameters[i].allowed.why_not(friction.value(i)); !why.empty())
+      fail(std::string(kFrictionParameters[i].name) + " = " + format_number(friction.value(i)) +
+           ": " + why);
+  check_model_choice(*this, fail);
   if (stages.empty()) fail("stages: a run needs at least one stage");
   for (std::size_t i = 0; i < stages.size(); ++i) {
     const std::string p = "stage" + std::to_string(i + 1) + ".";
     const auto& s = stages[i];
     if (!std::isfinite(s.duration) || !(s.duration > 0))
-      fail(p + "duration = " + fmt(s.duration) + ": must be a finite number > 0");
+      fail(p + "duration = " + format_number(s.duration) + ": must be a finite number > 0");
     if (!std::isfinite(s.v_a) || !(s.v_a >= 0))
-      fail(p + "v_a = " + fmt(s.v_a) + ": must be a finite number >= 0");
+      fail(p + "v_a = " + format_number(s.v_a) + ": must be a finite number >= 0");
     if (!std::isfinite(s.f) || !(s.f > 0))
-      fail(p + "f = " + fmt(s.f) + ": must be a finite number > 0");
+      fail(p + "f = " + format_number(s.f) + ": must be a finite number > 0");
   }
   const auto& in = integrator;
   if (std::isfinite(in.dt) && in.dt > 0 && std::isfinite(total_duration()) &&
       total_duration() / in.dt > in.max_steps && in.kind != IntegratorKind::kAdaptive)
-    fail("dt = " + fmt(in.dt) + ": needs more than max_steps = " + fmt(in.max_steps) + " steps");
+    fail("dt = " + format_number(in.dt) + ": needs more than max_steps = " +
+         format_number(in.max_steps) + " steps");
   if (!std::isfinite(in.atol) || !(in.atol > 0))
-    fail("atol = " + fmt(in.atol) + ": must be a finite number > 0");
+    fail("atol = " + format_number(in.atol) + ": must be a finite number > 0");
   // x_max: sliding distance of the run, about v_d times its duration [m].
   if (!extension.IsValid(errors, drive.v_d * total_duration())) ok = false;
   if (std::isfinite(trace.rate) ? trace.rate < 0 : true)
-    fail("trace_rate = " + fmt(trace.rate) + ": must be a finite number >= 0");
+    fail("trace_rate = " + format_number(trace.rate) + ": must be a finite number >= 0");
   return ok;
 }
 
@@ -208,41 +226,47 @@ void SimConfig::Validate() const {
   }
 }
 
+// ------------------------------------------------------------------ by name
+
 void set_parameter(SimConfig& cfg, std::string_view name, double value) {
-  for (const auto& f : fields()) {
-    if (name == f.name) {
-      check_domain(name, value, f.domain);
-      f.ref(cfg) = value;
-      return;
-    }
+  if (const Field* f = find_field(name)) {
+    check(name, value, f->allowed);
+    f->ref(cfg) = value;
+    return;
+  }
+  if (const int i = friction_parameter_index(name); i >= 0) {
+    check(name, value, kFrictionParameters[static_cast<std::size_t>(i)].allowed);
+    cfg.friction.value(static_cast<std::size_t>(i)) = value;
+    return;
   }
   if (set_extension_parameter(cfg.extension, name, value)) return;
   if (name == "v_a") {
-    check_domain(name, value, Domain::kNonNegative);
+    check(name, value, kNonNegative);
     if (cfg.stages.size() < 2)
       throw InvalidParameter("v_a", value, "needs a run with at least two stages");
     for (std::size_t i = 1; i < cfg.stages.size(); ++i) cfg.stages[i].v_a = value;
     return;
   }
   if (name == "f") {
-    check_domain(name, value, Domain::kPositive);
+    check(name, value, kPositive);
     for (auto& s : cfg.stages) s.f = value;
     return;
   }
   if (name == "t_on") {
-    check_domain(name, value, Domain::kPositive);
+    check(name, value, kPositive);
     if (cfg.stages.size() < 2)
       throw InvalidParameter("t_on", value, "needs a run with at least two stages");
     const double total = cfg.total_duration();
     if (!(value < total))
-      throw InvalidParameter("t_on", value, "must be less than the run duration " + fmt(total));
+      throw InvalidParameter("t_on", value,
+                             "must be less than the run duration " + format_number(total));
     // Keep the run's end time: stage 2 absorbs the change.
     cfg.stages[1].duration += cfg.stages[0].duration - value;
     cfg.stages[0].duration = value;
     return;
   }
   if (name == "duration") {
-    check_domain(name, value, Domain::kPositive);
+    check(name, value, kPositive);
     if (cfg.stages.size() == 1) {
       cfg.stages[0].duration = value;
       return;
@@ -250,7 +274,8 @@ void set_parameter(SimConfig& cfg, std::string_view name, double value) {
     const double t_on = cfg.stages[0].duration;
     if (!(value > t_on))
       throw InvalidParameter("duration", value,
-                             "must exceed t_on = " + fmt(t_on) + " (the still-base stage)");
+                             "must exceed t_on = " + format_number(t_on) +
+                                 " (the still-base stage)");
     double rest = cfg.total_duration() - t_on;
     for (std::size_t i = 1; i < cfg.stages.size(); ++i)
       cfg.stages[i].duration *= (value - t_on) / rest;
@@ -260,29 +285,27 @@ void set_parameter(SimConfig& cfg, std::string_view name, double value) {
   std::string_view field;
   if (parse_stage_name(name, &i, &field)) {
     require_stage(cfg, name, i, value);
-    if (field == "duration") {
-      check_domain(name, value, Domain::kPositive);
-      cfg.stages[i].duration = value;
-      return;
-    }
-    if (field == "v_a") {
-      check_domain(name, value, Domain::kNonNegative);
-      cfg.stages[i].v_a = value;
-      return;
-    }
-    if (field == "f") {
-      check_domain(name, value, Domain::kPositive);
-      cfg.stages[i].f = value;
+    const Interval allowed = field == "v_a" ? kNonNegative : kPositive;
+    double* target = field == "duration" ? &cfg.stages[i].duration
+                     : field == "v_a"    ? &cfg.stages[i].v_a
+                     : field == "f"      ? &cfg.stages[i].f
+                                         : nullptr;
+    if (target) {
+      check(name, value, allowed);
+      *target = value;
       return;
     }
   }
   throw InvalidParameter(std::string(name), value, "unknown parameter");
 }
 
-double get_parameter(const SimConfig& cfg_in, std::string_view name) {
-  SimConfig& cfg = const_cast<SimConfig&>(cfg_in);  // fields() hands out mutable refs; we only read
-  for (const auto& f : fields())
-    if (name == f.name) return f.ref(cfg);
+double get_parameter(const SimConfig& cfg, std::string_view name) {
+  if (const Field* f = find_field(name)) {
+    SimConfig copy = cfg;  // Field hands out mutable references
+    return f->ref(copy);
+  }
+  if (const int i = friction_parameter_index(name); i >= 0)
+    return cfg.friction.value(static_cast<std::size_t>(i));
   if (double v = 0; get_extension_parameter(cfg.extension, name, &v)) return v;
   if (name == "v_a") return cfg.stages.size() > 1 ? cfg.stages.back().v_a : 0.0;
   if (name == "f") return cfg.stages.empty() ? 0.0 : cfg.stages.back().f;
@@ -298,9 +321,29 @@ double get_parameter(const SimConfig& cfg_in, std::string_view name) {
   throw InvalidParameter(std::string(name), std::string(name), "unknown parameter");
 }
 
+void set_option(SimConfig& cfg, std::string_view name, std::string_view choice) {
+  cfg.friction.set_option(name, choice);
+}
+
+std::string get_option(const SimConfig& cfg, std::string_view name) {
+  const int i = friction_option_index(name);
+  if constexpr (!kFrictionOptions.empty()) {
+    if (i >= 0) {
+      const OptionDef& d = kFrictionOptions[static_cast<std::size_t>(i)];
+      const int choice = cfg.friction.option_at(static_cast<std::size_t>(i));
+      return d.choices[static_cast<std::size_t>(choice)];
+    }
+  }
+  throw InvalidParameter(std::string(name), std::string(name), "unknown model option");
+}
+
 std::vector<std::string> parameter_names() {
   std::vector<std::string> out;
   for (const auto& f : fields()) out.emplace_back(f.name);
+  for (const ParamDef& p : kFrictionParameters) {
+    out.emplace_back(p.name);
+    if (p.alias) out.emplace_back(p.alias);
+  }
   for (const char* n : {"v_a", "f", "t_on", "duration"}) out.emplace_back(n);
   for (int i = 1; i <= 2; ++i)
     for (const char* n : {"duration", "v_a", "f"})

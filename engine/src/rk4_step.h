@@ -10,23 +10,32 @@
 
 namespace stickslip::engine::detail {
 
-inline State axpy(const State& y, double h, const State& d) noexcept {
-  return {fmadd(h, d.x, y.x), fmadd(h, d.v, y.v), fmadd(h, d.s, y.s)};
+template <int Z, bool M>
+inline StateStorage<Z, M> axpy(const StateStorage<Z, M>& y, double h,
+                               const StateStorage<Z, M>& d) noexcept {
+  StateStorage<Z, M> out{fmadd(h, d.x, y.x), fmadd(h, d.v, y.v), fmadd(h, d.s, y.s)};
+  if constexpr (Z > 1)
+    for (int k = 0; k < Z - 1; ++k) out.zs[k] = fmadd(h, d.zs[k], y.zs[k]);
+  return out;
 }
 
 /// Advances y by one RK4 step of length h from time t. ub0, ub_half, ub_full: base velocity at
 /// t, t + h/2, t + h [m/s]. Returns the first stage (forces at the step start, for metrics).
 template <class Model>
-inline Deriv rk4_plain_step(const Model& model, const Plant& p, double t, double h, State& y,
-                            double ub0, double ub_half, double ub_full) noexcept {
-  const Deriv k1 = rhs(model, p, t, y, ub0);
-  const Deriv k2 = rhs(model, p, t + 0.5 * h, axpy(y, 0.5 * h, k1.d), ub_half);
-  const Deriv k3 = rhs(model, p, t + 0.5 * h, axpy(y, 0.5 * h, k2.d), ub_half);
-  const Deriv k4 = rhs(model, p, t + h, axpy(y, h, k3.d), ub_full);
+inline DerivT<Model::kStates> rk4_plain_step(const Model& model, const Plant& p, double t, double h,
+                                            StateOf<Model>& y, double ub0, double ub_half,
+                                            double ub_full) noexcept {
+  const auto k1 = rhs(model, p, t, y, ub0);
+  const auto k2 = rhs(model, p, t + 0.5 * h, axpy(y, 0.5 * h, k1.d), ub_half);
+  const auto k3 = rhs(model, p, t + 0.5 * h, axpy(y, 0.5 * h, k2.d), ub_half);
+  const auto k4 = rhs(model, p, t + h, axpy(y, h, k3.d), ub_full);
   const double h6 = h / 6.0;
   y.x = fmadd(h6, k1.d.x + 2.0 * (k2.d.x + k3.d.x) + k4.d.x, y.x);
   y.v = fmadd(h6, k1.d.v + 2.0 * (k2.d.v + k3.d.v) + k4.d.v, y.v);
   y.s = fmadd(h6, k1.d.s + 2.0 * (k2.d.s + k3.d.s) + k4.d.s, y.s);
+  if constexpr (Model::kStates > 1)
+    for (int k = 0; k < Model::kStates - 1; ++k)
+      y.zs[k] = fmadd(h6, k1.d.zs[k] + 2.0 * (k2.d.zs[k] + k3.d.zs[k]) + k4.d.zs[k], y.zs[k]);
   return k1;
 }
 

@@ -20,49 +20,25 @@ const char* to_string(RunStatus s) noexcept {
   return "?";
 }
 
+
+
 namespace detail {
-
-std::string divergence_reason(const SimConfig& cfg, double t, const State& y, double ub,
-                              double h) {
-  char buf[512];
-  const double v_r = y.v - ub;
-  if (cfg.model == ModelKind::kLuGre || cfg.model == ModelKind::kDahl) {
-    const double lam = cfg.friction.k_t * std::fabs(v_r) / cfg.friction.F_C;
-    std::snprintf(buf, sizeof buf,
-                  "state left the physical range at t = %.9g s (x' = %.3g m/s, s = %.3g m); "
-                  "step %.3g s times the bristle rate k_t|v_r|/F_C = %.3g 1/s is %.3g, and "
-                  "explicit RK4 is unstable above about 2.8: reduce dt or use the adaptive "
-                  "integrator",
-                  t, y.v, y.s, h, lam, h * lam);
-  } else {
-    std::snprintf(buf, sizeof buf,
-                  "state left the physical range at t = %.9g s (x' = %.3g m/s, s = %.3g m) "
-                  "with step %.3g s: reduce dt",
-                  t, y.v, y.s, h);
-  }
-  return buf;
-}
-
-DivergenceGuard make_guard(const SimConfig& cfg) {
-  // Far beyond anything physical: drive, vibration and slip velocities are mm/s to cm/s, and
-  // the strain never exceeds a few times F_S / k_t.
-  double v_a_max = 0.0;
-  for (const auto& s : cfg.stages) v_a_max = std::max(v_a_max, s.v_a);
-  const double v_slip = std::max(cfg.friction.F_S, cfg.friction.F_C) /
-                        std::sqrt(cfg.drive.k_d * cfg.drive.m);
-  const double s_scale = cfg.model == ModelKind::kResetIntegrator
-                             ? cfg.friction.s0
-                             : std::max(cfg.friction.F_S, cfg.friction.F_C) / cfg.friction.k_t;
-  return {1e3 * (cfg.drive.v_d + v_a_max + v_slip), 1e3 * s_scale};
-}
 
 void fail_diverged(RunContext& ctx, double t, const State& y, double ub, double h) {
   ctx.result.status = RunStatus::kDiverged;
   ctx.result.t_end = t;
-  ctx.result.reason = divergence_reason(ctx.cfg, t, y, ub, h);
+  ctx.result.reason = visit_model(ctx.cfg.model, [&]<class M>(std::type_identity<M>) {
+    return divergence_reason(make_model<M>(ctx.cfg), t, y.v, y.s, y.v - ub, h);
+  });
 }
 
 }  // namespace detail
+
+double force_scale(const SimConfig& cfg) {
+  return visit_model(cfg.model, [&]<class M>(std::type_identity<M>) {
+    return detail::force_scale(cfg, make_model<M>(cfg));
+  });
+}
 
 namespace {
 
@@ -93,8 +69,7 @@ void run(detail::RunContext& ctx) {
 SimResult simulate_saving(const SimConfig& cfg, detail::CheckpointData* save, std::size_t after) {
   SimResult r;
   if (invalid(cfg, &r)) return r;
-  detail::RunContext ctx{cfg, r, detail::TraceRecorder(cfg.trace.rate, &r.trace),
-                         detail::make_guard(cfg)};
+  detail::RunContext ctx{cfg, r, detail::TraceRecorder(cfg.trace.rate, &r.trace)};
   ctx.save = save;
   ctx.save_after = after;
   if (cfg.extension.active()) {
@@ -147,7 +122,7 @@ SimResult simulate_from(const SimConfig& cfg, const SimCheckpoint& checkpoint) {
   r = c.result;
   if (cfg.trace.rate > 0)
     r.trace.reserve(static_cast<std::size_t>(cfg.total_duration() * cfg.trace.rate) + 2);
-  detail::RunContext ctx{cfg, r, c.trace, detail::make_guard(cfg)};
+  detail::RunContext ctx{cfg, r, c.trace};
   ctx.trace.retarget(&r.trace);
   ctx.ext = c.ext;
   ctx.resume = &c;

@@ -1,31 +1,23 @@
 #pragma once
-// Internal: the seed's system as a plain right-hand side, plus the "frozen-mode" forms of the
-// switching models that the event-locating integrators need. Not part of the public API.
+// Internal: the seed's system as a plain right-hand side for any registered model, the glue
+// between a model's traits and the integrators (its scalar form, hybrid form, internal states,
+// error weights, divergence guard), and the stage loop shared by every integrator. Not part of
+// the public API.
 
+#include <array>
 #include <cmath>
+#include <functional>
 #include <string>
+#include <type_traits>
+#include <vector>
 
-#include "stickslip/engine/metrics.h"
-#include "stickslip/engine/models.h"
-#include "stickslip/engine/simulate.h"
 #include "extended.h"
+#include "stickslip/engine/metrics.h"
+#include "stickslip/engine/params.h"
+#include "stickslip/engine/simulate.h"
+#include "trace.h"
 
 namespace stickslip::engine::detail {
-
-struct State {
-  double x = 0.0;  ///< body position [m]
-  double v = 0.0;  ///< body velocity [m/s]
-  double s = 0.0;  ///< bristle strain [m] (unused by Karnopp)
-};
-
-/// Everything the friction model sees at one instant besides the state.
-struct Point {
-  double F_d;        ///< drive force [N]
-  double v_r;        ///< relative velocity [m/s]
-  double a_b = 0.0;  ///< base acceleration u'' [m/s^2]
-  Mod mod{};          ///< extension: friction level and static-friction increase
-  double sigma2 = 0.0;  ///< extension: viscous coefficient [N s/m]
-};
 
 /// Body, drive and the current stage's base motion. u'(t) = v_a cos(w (t - t0)).
 struct Plant {
@@ -50,38 +42,139 @@ struct Plant {
   double drive_force(double t, double x) const noexcept { return k_d * fmadd(v_d, t, -x); }
 };
 
-/// LuGre for single trajectories (rk4, adaptive): the same results as LuGre, bitwise, through
-/// LuGre::eval_scalar (a branch past the Stribeck flush point instead of the batched kernels'
-/// select). The batched kernels use LuGre itself.
-struct ScalarLuGre : LuGre {
-  explicit ScalarLuGre(const FrictionParams& p) : LuGre(p) {}
-  FrictionEval operator()(double v_r, double s, double /*F_d*/) const noexcept {
-    return eval_scalar(v_r, s);
-  }
-};
+inline Plant make_plant(const SimConfig& cfg) {
+  return Plant{1.0 / cfg.drive.m, cfg.drive.k_d, cfg.drive.v_d};
+}
 
 /// Derivative plus the forces it came from.
-struct Deriv {
-  State d;
+template <class S>
+struct DerivOf {
+  S d;
   double F_d, F_f;
 };
+template <int Z>
+using DerivT = DerivOf<StateT<Z>>;
+/// The state and derivative of the models with at most one internal state (all of the seed's).
+using State = StateT<1>;
+using Deriv = DerivT<1>;
 
-template <class Model>
-inline Deriv rhs(const Model& model, const Plant& p, double t, const State& y,
-                 double ub) noexcept {
-  if (p.ext) [[unlikely]] {
-    const double F_d = p.drive_force(t, y.x) + p.ext->c_d * (p.v_d - y.v);
-    const FrictionEval fe = eval_ext(model, *p.ext, p.modulation(t, y.x), y.v - ub, y.s, F_d);
-    return {{y.v, (F_d - fe.F_f) * p.m_inv, fe.ds}, F_d, fe.F_f};
+// ------------------------------------------------------------------ model glue (traits hooks)
+
+template <class M>
+using StateOf = StateT<M::kStates>;
+
+/// The internal states of y as a model's right-hand side reads them: the double s (a model with
+/// at most one internal state) or an array.
+template <int Z, bool B>
+auto states_of(const StateStorage<Z, B>& y) noexcept {
+  if constexpr (Z <= 1) return y.s;
+  else return internal_states(y);
+}
+template <class M>
+concept WithEffects = requires(const M& m, const EffectTerms& r, const Mod& mod,
+                               const StateOf<M>& y) { m.eval_ext(r, mod, 0.0, states_of(y), 0.0); };
+template <class M>
+concept WithLambda = requires(const M& m) { m.lambda(0.0); };
+
+/// A derivative from a hybrid form's friction evaluation (pt: the point it was evaluated at).
+template <class S, class Eval>
+inline DerivOf<S> frozen_deriv(const Plant& p, const Point& pt, const S& y,
+                               const Eval& fe) noexcept {
+  if constexpr (std::is_same_v<Eval, FrictionEval>) {
+    return {{y.v, (pt.F_d - fe.F_f) * p.m_inv, fe.ds}, pt.F_d, fe.F_f};
+  } else {
+    DerivOf<S> d{{y.v, (pt.F_d - fe.F_f) * p.m_inv, fe.dz[0]}, pt.F_d, fe.F_f};
+    for (std::size_t k = 1; k < fe.dz.size(); ++k) d.d.zs[k - 1] = fe.dz[k];
+    return d;
   }
-  const double F_d = p.drive_force(t, y.x);
-  const FrictionEval fe = model(y.v - ub, y.s, F_d);
-  return {{y.v, (F_d - fe.F_f) * p.m_inv, fe.ds}, F_d, fe.F_f};
+}
+
+/// The form single trajectories evaluate (M::Scalar when the model has one, e.g. LuGre's
+/// branch past the Stribeck flush point).
+template <class M>
+auto scalar_form(const M& m) {
+  if constexpr (requires { typename M::Scalar; }) return typename M::Scalar(m);
+  else return m;
+}
+
+/// The state at t = 0: the body at rest at x = 0 and the model's initial internal states.
+template <class M>
+StateOf<M> initial_state(const M& m, const Drive& d) {
+  StateOf<M> y{};
+  if constexpr (requires { m.initial_z(d); }) {
+    const auto z = m.initial_z(d);
+    for (int k = 0; k < M::kStates; ++k) internal(y, k) = z[static_cast<std::size_t>(k)];
+  }
+  (void)m;
+  (void)d;
+  return y;
+}
+
+/// A model may name a primary internal state other than s for the trace and the result
+/// (primary_state(z), z its internal states), e.g. GMS the summed element force.
+template <class M>
+concept HasPrimaryState =
+    requires(const M& m, const StateOf<M>& y) { m.primary_state(internal_states(y)); };
+/// The model's primary internal state: the trace's and the result's "s".
+template <class M>
+double primary_state(const M& m, const StateOf<M>& y) noexcept {
+  if constexpr (HasPrimaryState<M>) return m.primary_state(internal_states(y));
+  else return y.s;
+}
+
+/// The run's force scale F_ref [N]: the model's force_scale() when it has one, else the
+/// contact's friction level max(F_S, F_C) (tolerance and divergence scale).
+template <class M>
+double force_scale(const SimConfig& cfg, const M& m) {
+  if constexpr (requires { m.force_scale(); }) return m.force_scale();
+  (void)m;
+  return std::max(cfg.friction["F_S"], cfg.friction["F_C"]);
+}
+
+/// A model's right-hand side at time t, state y and base velocity ub [m/s]: the derivative and the
+/// forces it came from. A model with catalogue effects (ModelInfo::effects) evaluates them with
+/// its eval_ext when the plant carries one.
+template <class Model>
+inline DerivT<Model::kStates> rhs(const Model& model, const Plant& p, double t,
+                                 const StateOf<Model>& y, double ub) noexcept {
+  if constexpr (requires { Model::kInfo; })  // (not the batched forms, which run without effects)
+    static_assert(!Model::kInfo.effects || WithEffects<Model>,
+                  "a model with ModelInfo::effects = true needs eval_ext (see models/lugre.h)");
+  if constexpr (Model::kStates <= 1) {
+    if constexpr (WithEffects<Model>) {
+      if (p.ext) [[unlikely]] {
+        const double F_d = p.drive_force(t, y.x) + p.ext->c_d * (p.v_d - y.v);
+        const FrictionEval fe =
+            model.eval_ext(*p.ext, p.modulation(t, y.x), y.v - ub, y.s, F_d);
+        return {{y.v, (F_d - fe.F_f) * p.m_inv, fe.ds}, F_d, fe.F_f};
+      }
+    }
+    const double F_d = p.drive_force(t, y.x);
+    const FrictionEval fe = model(y.v - ub, y.s, F_d);
+    return {{y.v, (F_d - fe.F_f) * p.m_inv, fe.ds}, F_d, fe.F_f};
+  } else {  // several internal states: the model reads and returns them as arrays
+    double F_d = p.drive_force(t, y.x);
+    FrictionEvalN<Model::kStates> fe;
+    if constexpr (WithEffects<Model>) {
+      if (p.ext) [[unlikely]] {
+        F_d += p.ext->c_d * (p.v_d - y.v);
+        fe = model.eval_ext(*p.ext, p.modulation(t, y.x), y.v - ub, internal_states(y), F_d);
+      } else {
+        fe = model(y.v - ub, internal_states(y), F_d);
+      }
+    } else {
+      fe = model(y.v - ub, internal_states(y), F_d);
+    }
+    DerivT<Model::kStates> d{{y.v, (F_d - fe.F_f) * p.m_inv, fe.dz[0]}, F_d, fe.F_f};
+    for (int k = 1; k < Model::kStates; ++k) d.d.zs[k - 1] = fe.dz[k];
+    return d;
+  }
 }
 
 /// After every accepted step: the dwell_time extension's stick clock restarts while slipping.
 /// Returns true when the friction law changed at t (so a cached derivative at t is stale).
-inline bool after_step(const Plant& p, double t, const State& y) noexcept {
+template <class S>
+inline bool after_step(const Plant& p, double t, const S& y) noexcept {
   if (p.ext && p.ext->tracks_stick() && std::fabs(y.v - p.base_velocity(t)) > p.ext->e.dwell_v) {
     const bool changed = p.ext->e.dwell_A != 0.0 && t > p.ext->t_slip;
     p.ext->t_slip = t;
@@ -90,261 +183,63 @@ inline bool after_step(const Plant& p, double t, const State& y) noexcept {
   return false;
 }
 
-// ---------------------------------------------------------------------------------------------
-// Hybrid forms for event location. A mode freezes the branch of a switching model so that the
-// right-hand side is smooth inside a step; event functions are >= 0 while the mode holds.
-// ---------------------------------------------------------------------------------------------
-
-enum class KMode { kSlipPos, kSlipNeg, kStick, kSatPos, kSatNeg, kEdgePos, kEdgeNeg };
-enum class RMode { kStick, kSlidePos, kSlideNeg };
-
-/// Karnopp in hybrid form. Besides slip (|v_r| > DV) and the band (stick, or saturated stick
-/// when |F_d| > F_S), a vibrating base creates sliding motion ON a band edge v_r = +-DV: the
-/// slip side pushes v_r back into the band while the band side (where the body does not
-/// accelerate but the base does) pushes it out. Filippov's convention then keeps v_r = +-DV,
-/// i.e. the body is carried by the base, with F_f = F_d - m u''. A fixed-step integration of
-/// eq. (11) approximates the same motion by chattering across the edge every step.
-struct KarnoppHybrid {
-  Karnopp m;
-  double mass;  ///< body mass [kg]
-  using Mode = KMode;
-  Mode classify(const Point& p, double /*s*/) const noexcept {
-    if (p.v_r > m.DV) return Mode::kSlipPos;
-    if (p.v_r < -m.DV) return Mode::kSlipNeg;
-    return band_mode(p);
-  }
-  /// Static and slip friction at this point (the Table 1 values unless an extension modulates
-  /// them; slip friction includes the viscous extension's sigma2 |v_r|) [N].
-  double FS(const Point& p) const noexcept { return p.mod.level * (m.F_S + p.mod.dFS); }
-  double Fslip(const Point& p) const noexcept {
-    return p.mod.level * m.F_slip + p.sigma2 * std::fabs(p.v_r);
-  }
-  Mode band_mode(const Point& p) const noexcept {
-    const double F_S = FS(p);
-    if (p.F_d > F_S) return Mode::kSatPos;
-    if (p.F_d < -F_S) return Mode::kSatNeg;
-    return Mode::kStick;
-  }
-  /// Body acceleration inside the band [m/s^2].
-  double band_accel(const Point& p) const noexcept {
-    const double F_S = FS(p);
-    return (p.F_d - std::fmin(std::fmax(p.F_d, -F_S), F_S)) / mass;
-  }
-  FrictionEval eval(Mode mode, const Point& p, double /*s*/) const noexcept {
-    switch (mode) {
-      case Mode::kSlipPos: return {Fslip(p), 0.0};
-      case Mode::kSlipNeg: return {-Fslip(p), 0.0};
-      case Mode::kStick: return {p.F_d, 0.0};
-      case Mode::kSatPos: return {FS(p), 0.0};
-      case Mode::kSatNeg: return {-FS(p), 0.0};
-      case Mode::kEdgePos:
-      case Mode::kEdgeNeg: return {p.F_d - mass * p.a_b, 0.0};
-    }
-    return {0.0, 0.0};
-  }
-  /// Smallest event function of the mode (>= 0 inside, fires when < 0), and the mode it leads to.
-  double event(Mode mode, const Point& p, double /*s*/, Mode* next) const noexcept {
-    const double up = m.DV - p.v_r;     // leaves the band upwards when < 0
-    const double down = p.v_r + m.DV;  // leaves the band downwards when < 0
-    const double F_S = FS(p), F_slip = Fslip(p);
-    double e = 1e300;
-    auto take = [&](double value, Mode to) {
-      if (value < e) { e = value; *next = to; }
-    };
-    switch (mode) {
-      case Mode::kSlipPos: take(-up, Mode::kStick); break;    // v_r falls to DV
-      case Mode::kSlipNeg: take(-down, Mode::kStick); break;  // v_r rises to -DV
-      case Mode::kStick:
-        take(F_S - p.F_d, Mode::kSatPos);
-        take(p.F_d + F_S, Mode::kSatNeg);
-        take(up, Mode::kSlipPos);
-        take(down, Mode::kSlipNeg);
-        break;
-      case Mode::kSatPos:
-        take(p.F_d - F_S, Mode::kStick);
-        take(up, Mode::kSlipPos);
-        take(down, Mode::kSlipNeg);
-        break;
-      case Mode::kSatNeg:
-        take(-F_S - p.F_d, Mode::kStick);
-        take(up, Mode::kSlipPos);
-        take(down, Mode::kSlipNeg);
-        break;
-      case Mode::kEdgePos:  // needs band side pushing up and slip side pushing down
-        take(band_accel(p) - p.a_b, Mode::kStick);
-        take(p.a_b - (p.F_d - F_slip) / mass, Mode::kSlipPos);
-        break;
-      case Mode::kEdgeNeg:
-        take(p.a_b - band_accel(p), Mode::kStick);
-        take((p.F_d + F_slip) / mass - p.a_b, Mode::kSlipNeg);
-        break;
-    }
-    return e;
-  }
-  /// The mode actually entered when an event of mode 'from' asks for 'to' at point p.
-  Mode settle(Mode from, Mode to, const Point& p) const noexcept {
-    const double band_flow = band_accel(p) - p.a_b;  // dv_r/dt inside the band
-    switch (to) {
-      case Mode::kStick:
-      case Mode::kSatPos:
-      case Mode::kSatNeg:
-        if (from == Mode::kSlipPos && band_flow > 0) return Mode::kEdgePos;
-        if (from == Mode::kSlipNeg && band_flow < 0) return Mode::kEdgeNeg;
-        return band_mode(p);
-      case Mode::kSlipPos: {  // at v_r = +DV, leaving the band or an edge upwards
-        if ((p.F_d - Fslip(p)) / mass - p.a_b >= 0) return to;  // slip side moves away
-        if (from != Mode::kEdgePos && band_flow > 0) return Mode::kEdgePos;
-        return band_mode(p);  // both sides flow back into the band
-      }
-      case Mode::kSlipNeg: {
-        if ((p.F_d + Fslip(p)) / mass - p.a_b <= 0) return to;
-        if (from != Mode::kEdgeNeg && band_flow < 0) return Mode::kEdgeNeg;
-        return band_mode(p);
-      }
-      default: return to;
-    }
-  }
-  /// Projects the state onto the entered mode's set: on an edge v_r = +-DV exactly, inside the
-  /// band |v_r| <= DV. Without this, round-off drift of 1e-11 m/s past an edge makes the band's
-  /// exit event fire at once, and the integrator ping-pongs between modes at zero step length.
-  ///
-  /// A slip that ends in the band (from kSlipPos/kSlipNeg) ends exactly on its edge: the
-  /// located point is up to the locator's tolerance past the event v_r = +-DV, and the body
-  /// then creeps through the whole stick at that velocity. The creep velocity's shortfall eps
-  /// below DV delays the next breakaway by sqrt(2 m eps / (k_d v_d)) (the band must be crossed
-  /// by the saturated acceleration first): eps = 4e-14 m/s (a 1e-14 s tolerance at 4 m/s^2)
-  /// gave a 7e-8 s late slip and 1.5e-6 N of F_d offset per stick-slip cycle. The edge is
-  /// entered 1e-12 DV inside: exactly on it, the round-off of v_r = x' - u' (~1e-21 m/s) made
-  /// the band's exit event fire at once under vibration (4757 zero-length switch loops in 6 s
-  /// at 4 mm/s, each ending in a step taken without location: 0.03 N momentum imbalance).
-  static constexpr double kEdgeInside = 1.0 - 1e-12;
-  void on_enter(Mode mode, const Point& p, State& y, Mode from) const noexcept {
-    double target = p.v_r;
-    if (mode == Mode::kEdgePos) target = m.DV;
-    else if (mode == Mode::kEdgeNeg) target = -m.DV;
-    else if (mode == Mode::kStick || mode == Mode::kSatPos || mode == Mode::kSatNeg) {
-      target = std::fmin(std::fmax(p.v_r, -m.DV), m.DV);
-      if (from == Mode::kSlipPos) target = kEdgeInside * m.DV;
-      if (from == Mode::kSlipNeg) target = -kEdgeInside * m.DV;
-    }
-    y.v += target - p.v_r;
-  }
-};
-
-struct ResetHybrid {
-  ResetIntegrator m;
-  using Mode = RMode;
-  Mode classify(const Point& p, double s) const noexcept {
-    if (s >= m.s0 && p.v_r > 0) return Mode::kSlidePos;
-    if (s <= -m.s0 && p.v_r < 0) return Mode::kSlideNeg;
-    return Mode::kStick;
-  }
-  FrictionEval eval(Mode mode, const Point& p, double s) const noexcept {
-    if (p.mod.level != 1.0 || p.mod.dFS != 0.0 || p.sigma2 != 0.0) [[unlikely]]
-      return eval_extended(mode, p, s);
-    switch (mode) {
-      case Mode::kStick: return {(1.0 + m.alpha) * m.k_t * s + m.beta * p.v_r, p.v_r};
-      case Mode::kSlidePos: return {m.k_t * m.s0, 0.0};
-      case Mode::kSlideNeg: return {-m.k_t * m.s0, 0.0};
-    }
-    return {0.0, 0.0};
-  }
-  /// With an extension: the contact force scaled by the friction level, the stiction gain
-  /// raised by dFS / (k_t s0) (breakaway force + dFS), plus sigma2 v_r.
-  FrictionEval eval_extended(Mode mode, const Point& p, double s) const noexcept {
-    const double visc = p.sigma2 * p.v_r;
-    switch (mode) {
-      case Mode::kStick: {
-        const double a = m.alpha + p.mod.dFS / (m.k_t * m.s0);
-        return {p.mod.level * ((1.0 + a) * m.k_t * s + m.beta * p.v_r) + visc, p.v_r};
-      }
-      case Mode::kSlidePos: return {p.mod.level * m.k_t * m.s0 + visc, 0.0};
-      case Mode::kSlideNeg: return {-p.mod.level * m.k_t * m.s0 + visc, 0.0};
-    }
-    return {0.0, 0.0};
-  }
-  double event(Mode mode, const Point& p, double s, Mode* next) const noexcept {
-    switch (mode) {
-      case Mode::kStick: {
-        const double hi = m.s0 - s, lo = s + m.s0;
-        *next = hi < lo ? Mode::kSlidePos : Mode::kSlideNeg;
-        return hi < lo ? hi : lo;
-      }
-      case Mode::kSlidePos: *next = Mode::kStick; return p.v_r;
-      case Mode::kSlideNeg: *next = Mode::kStick; return -p.v_r;
-    }
-    return 1e300;
-  }
-  Mode settle(Mode /*from*/, Mode to, const Point&) const noexcept { return to; }
-  /// The strain sits exactly at its limit while sliding (eq. 16).
-  void on_enter(Mode mode, const Point&, State& y, Mode /*from*/) const noexcept {
-    if (mode == Mode::kSlidePos) y.s = m.s0;
-    if (mode == Mode::kSlideNeg) y.s = -m.s0;
-  }
-};
+// ------------------------------------------------------------------ divergence
 
 /// Limits beyond which a run is declared diverged (never reached by a healthy run).
 struct DivergenceGuard {
   double v_limit;  ///< [m/s]
-  double s_limit;  ///< [m]
-  bool ok(const State& y) const noexcept {
-    return std::fabs(y.v) < v_limit && std::fabs(y.s) < s_limit && std::isfinite(y.x);
+  double s_limit;  ///< [unit of s]
+  std::array<double, kMaxInternalStates - 1> zs_limit{};  ///< further internal states
+  template <class S>
+  bool ok(const S& y) const noexcept {
+    if constexpr (requires { y.zs; }) {
+      bool in = std::fabs(y.v) < v_limit && std::fabs(y.s) < s_limit && std::isfinite(y.x);
+      for (std::size_t k = 0; k < y.zs.size(); ++k) in = in && std::fabs(y.zs[k]) < zs_limit[k];
+      return in;
+    } else {
+      return std::fabs(y.v) < v_limit && std::fabs(y.s) < s_limit && std::isfinite(y.x);
+    }
   }
 };
 
-/// Records decimated trace samples by linear interpolation between integrator steps.
-class TraceRecorder {
- public:
-  TraceRecorder(double rate, std::vector<TraceSample>* out) : out_(out) {
-    if (rate > 0) period_ = 1.0 / rate;
-  }
-  bool active() const noexcept { return period_ > 0; }
-  /// sensor_dynamics: the trace's F_d becomes the sensor's output (see extensions.h).
-  void set_sensor(const SensorFilter& f) { sensor_ = f; }
-  /// Further samples go to out (a copy of the recorder continues another run's trace).
-  void retarget(std::vector<TraceSample>* out) noexcept { out_ = out; }
-  /// Called on every integrator step: the common case (no sample due, no sensor) is inline.
-  void add(const TraceSample& now) {
-    if (period_ <= 0) return;
-    if (have_prev_ && now.t < next_t_ && !sensor_.active()) {
-      prev_ = now;
-      return;
-    }
-    add_slow(now);
-  }
+/// Far beyond anything physical: drive, vibration and slip velocities are mm/s to cm/s, and the
+/// internal states never exceed a few times the model's state_scale.
+template <class M>
+DivergenceGuard make_guard(const SimConfig& cfg, const M& m) {
+  double v_a_max = 0.0;
+  for (const auto& s : cfg.stages) v_a_max = std::max(v_a_max, s.v_a);
+  const double f_ref = force_scale(cfg, m);
+  const double v_slip = f_ref / std::sqrt(cfg.drive.k_d * cfg.drive.m);
+  const auto scale = m.state_scale(f_ref);
+  DivergenceGuard g{1e3 * (cfg.drive.v_d + v_a_max + v_slip), HUGE_VAL};  // no state: s stays 0
+  if constexpr (std::tuple_size_v<decltype(scale)> > 0) g.s_limit = 1e3 * scale[0];
+  for (std::size_t k = 1; k < scale.size(); ++k) g.zs_limit[k - 1] = 1e3 * scale[k];
+  return g;
+}
 
- private:
-  void add_slow(TraceSample now) {
-    if (sensor_.active()) now.F_d = sensor_.step(now.t, now.F_d);
-    if (!have_prev_) {
-      prev_ = now;
-      have_prev_ = true;
-      if (now.t >= next_t_) emit(now);
-      return;
-    }
-    while (next_t_ <= now.t) {
-      const double span = now.t - prev_.t;
-      const double w = span > 0 ? (next_t_ - prev_.t) / span : 1.0;
-      auto lerp = [&](double a, double b) { return a + w * (b - a); };
-      emit({next_t_, lerp(prev_.F_d, now.F_d), lerp(prev_.F_f, now.F_f), lerp(prev_.x, now.x),
-            lerp(prev_.v, now.v), lerp(prev_.s, now.s)});
-    }
-    prev_ = now;
+/// Why a run left the physical range, naming the likely cause: the model's stiff rate (the
+/// bristle rate of Dahl and LuGre) against explicit RK4's stability limit, or the step.
+template <class M>
+[[gnu::noinline, gnu::cold]] std::string divergence_reason(const M& m, double t, double v,
+                                                           double s, double v_r, double h) {
+  char buf[512];
+  if constexpr (requires { m.stiff_rate(v_r); }) {
+    const double lam = m.stiff_rate(v_r);
+    std::snprintf(buf, sizeof buf,
+                  "state left the physical range at t = %.9g s (x' = %.3g m/s, s = %.3g m); "
+                  "step %.3g s times %s = %.3g 1/s is %.3g, and explicit RK4 is unstable above "
+                  "about 2.8: reduce dt or use the adaptive integrator",
+                  t, v, s, h, M::kStiffRate, lam, h * lam);
+  } else {
+    std::snprintf(buf, sizeof buf,
+                  "state left the physical range at t = %.9g s (x' = %.3g m/s, s = %.3g m) "
+                  "with step %.3g s: reduce dt",
+                  t, v, s, h);
   }
+  return buf;
+}
 
-  void emit(const TraceSample& s) {
-    out_->push_back(s);
-    ++count_;
-    next_t_ = static_cast<double>(count_) * period_;
-  }
-  std::vector<TraceSample>* out_;
-  double period_ = 0.0;
-  double next_t_ = 0.0;
-  std::size_t count_ = 0;
-  bool have_prev_ = false;
-  TraceSample prev_{};
-  SensorFilter sensor_;
-};
+// ------------------------------------------------------------------ the stage loop
 
 struct CheckpointData;
 
@@ -353,7 +248,10 @@ struct RunContext {
   const SimConfig& cfg;
   SimResult& result;
   TraceRecorder trace;
-  DivergenceGuard guard;
+  DivergenceGuard guard{};  ///< set by the integrator from the model (make_guard)
+  /// The result's s_end from the final state, for models with a primary_state (nullptr: y.s);
+  /// set by the integrator.
+  std::function<double(const double* z)> primary{};
   ExtRuntime ext{};  ///< catalogue extension state (kind none: the base model)
   /// Continue from this run's end of a stage (simulate_from; result, trace and ext are already
   /// restored; drive_stages restores the state and the step size).
@@ -369,18 +267,95 @@ struct CheckpointData {
   SimConfig cfg;               ///< the run it came from
   std::size_t stages_done = 0; ///< the next stage's index
   double t0 = 0.0;             ///< the next stage's start [s]
-  State y{};
+  State y{};                   ///< x, x', s
+  std::array<double, kMaxInternalStates - 1> zs{};  ///< further internal states
   double h = 0.0;              ///< the adaptive integrator's next step [s]
   ExtRuntime ext{};
   TraceRecorder trace{0.0, nullptr};  ///< its output pointer is stale: retarget before use
   SimResult result;            ///< the run so far
 };
 
-/// The divergence limits simulate() uses for cfg.
-DivergenceGuard make_guard(const SimConfig& cfg);
+/// For RunContext::primary: M's primary_state over the internal states z[0 .. kStates).
+template <class M>
+std::function<double(const double*)> primary_state_fn(const M& m) {
+  if constexpr (HasPrimaryState<M>) {
+    return [m](const double* z) {
+      std::array<double, M::kStates> a;
+      for (int k = 0; k < M::kStates; ++k) a[static_cast<std::size_t>(k)] = z[k];
+      return m.primary_state(a);
+    };
+  } else {
+    return nullptr;
+  }
+}
 
-std::string divergence_reason(const SimConfig& cfg, double t, const State& y, double ub,
-                              double h);
+/// Marks the run diverged at time t with a reason that names the likely cause (simulate.cpp).
+void fail_diverged(RunContext& ctx, double t, const State& y, double ub, double h);
+/// The same for a state with further internal states (the reason names x' and s).
+template <int Z>
+void fail_diverged(RunContext& ctx, double t, const StateStorage<Z, true>& y, double ub, double h) {
+  fail_diverged(ctx, t, State{y.x, y.v, y.s}, ub, h);
+}
+
+/// Runs the stage loop shared by every integrator. integrate_stage(plant, t0, t1, acc) advances
+/// the state from t0 to t1 under the stage's base motion, feeding the accumulator, and returns
+/// false when the run diverged (having filled result.status/reason/t_end). h: the integrator's
+/// step size carried between stages (adaptive; nullptr for the fixed-step integrators), saved
+/// in and restored from checkpoints with the state y.
+template <class S, class IntegrateStage>
+void drive_stages(RunContext& ctx, S& y, double* h, IntegrateStage&& integrate_stage) {
+  Plant plant = make_plant(ctx.cfg);
+  if (ctx.ext.kind != ExtensionKind::kNone) plant.ext = &ctx.ext;
+  double t0 = 0.0;
+  std::size_t first = 0;
+  if (ctx.resume) {
+    first = ctx.resume->stages_done;
+    t0 = ctx.resume->t0;
+    y.x = ctx.resume->y.x;
+    y.v = ctx.resume->y.v;
+    y.s = ctx.resume->y.s;
+    if constexpr (requires { y.zs; })
+      for (std::size_t k = 0; k < y.zs.size(); ++k) y.zs[k] = ctx.resume->zs[k];
+    if (h) *h = ctx.resume->h;
+  }
+  for (std::size_t i = first; i < ctx.cfg.stages.size(); ++i) {
+    const Stage& st = ctx.cfg.stages[i];
+    const double t1 = t0 + st.duration;
+    plant.v_a = st.v_a;
+    plant.w = 2.0 * M_PI * st.f;
+    plant.t0 = t0;
+    StageAccumulator acc(t0, t1, ctx.cfg.metrics);
+    const bool ok = integrate_stage(plant, t0, t1, acc);
+    ctx.result.x_end = y.x;
+    ctx.result.v_end = y.v;
+    ctx.result.s_end = y.s;
+    if constexpr (requires { y.zs; }) {
+      if (ctx.primary) {
+        std::array<double, kMaxInternalStates> z{y.s};
+        for (std::size_t k = 0; k < y.zs.size(); ++k) z[k + 1] = y.zs[k];
+        ctx.result.s_end = ctx.primary(z.data());
+      }
+    }
+    if (!ok) return;
+    ctx.result.stages.push_back(acc.finish());
+    t0 = t1;
+    if (ctx.save && i + 1 == ctx.save_after) {
+      CheckpointData& c = *ctx.save;
+      c.cfg = ctx.cfg;
+      c.stages_done = i + 1;
+      c.t0 = t0;
+      c.y = {y.x, y.v, y.s};
+      if constexpr (requires { y.zs; })
+        for (std::size_t k = 0; k < y.zs.size(); ++k) c.zs[k] = y.zs[k];
+      c.h = h ? *h : 0.0;
+      c.ext = ctx.ext;
+      c.trace = ctx.trace;
+      c.result = ctx.result;
+      c.result.t_end = t0;
+    }
+  }
+  ctx.result.t_end = t0;
+}
 
 /// Locates the first switch in a step of length h whose frozen-mode event function is f0 (>= 0,
 /// clamped) at the start and f_h (< 0) at the end, by regula falsi with the Illinois
@@ -438,57 +413,6 @@ double locate_switch(double f0, double h, double f_h, Out& out_h, Eval&& eval) {
     }
   }
   return b;
-}
-
-inline Plant make_plant(const SimConfig& cfg) {
-  return Plant{1.0 / cfg.drive.m, cfg.drive.k_d, cfg.drive.v_d};
-}
-
-/// Runs the stage loop shared by every integrator. integrate_stage(plant, t0, t1, acc) advances
-/// the state from t0 to t1 under the stage's base motion, feeding the accumulator, and returns
-/// false when the run diverged (having filled result.status/reason/t_end). h: the integrator's
-/// step size carried between stages (adaptive; nullptr for the fixed-step integrators), saved
-/// in and restored from checkpoints with the state y.
-template <class IntegrateStage>
-void drive_stages(RunContext& ctx, State& y, double* h, IntegrateStage&& integrate_stage) {
-  Plant plant = make_plant(ctx.cfg);
-  if (ctx.ext.kind != ExtensionKind::kNone) plant.ext = &ctx.ext;
-  double t0 = 0.0;
-  std::size_t first = 0;
-  if (ctx.resume) {
-    first = ctx.resume->stages_done;
-    t0 = ctx.resume->t0;
-    y = ctx.resume->y;
-    if (h) *h = ctx.resume->h;
-  }
-  for (std::size_t i = first; i < ctx.cfg.stages.size(); ++i) {
-    const Stage& st = ctx.cfg.stages[i];
-    const double t1 = t0 + st.duration;
-    plant.v_a = st.v_a;
-    plant.w = 2.0 * M_PI * st.f;
-    plant.t0 = t0;
-    StageAccumulator acc(t0, t1, ctx.cfg.metrics);
-    const bool ok = integrate_stage(plant, t0, t1, acc);
-    ctx.result.x_end = y.x;
-    ctx.result.v_end = y.v;
-    ctx.result.s_end = y.s;
-    if (!ok) return;
-    ctx.result.stages.push_back(acc.finish());
-    t0 = t1;
-    if (ctx.save && i + 1 == ctx.save_after) {
-      CheckpointData& c = *ctx.save;
-      c.cfg = ctx.cfg;
-      c.stages_done = i + 1;
-      c.t0 = t0;
-      c.y = y;
-      c.h = h ? *h : 0.0;
-      c.ext = ctx.ext;
-      c.trace = ctx.trace;
-      c.result = ctx.result;
-      c.result.t_end = t0;
-    }
-  }
-  ctx.result.t_end = t0;
 }
 
 }  // namespace stickslip::engine::detail

@@ -369,7 +369,8 @@ void SpecBuilder::read_base() {
     read_analytic_base(*base);
     return;
   }
-  cfg().model = is_engine_model(model) ? engine::model_from_string(model) : engine::ModelKind::kLuGre;
+  cfg().model = is_engine_model(model) ? engine::model_from_string(model)
+                                        : engine::model_kind<engine::LuGre>;
   read_engine_base(*base);
 }
 
@@ -1225,7 +1226,7 @@ DesignPoint StudySpec::point(std::size_t index) const {
 
 namespace {
 bool uses_static_friction(engine::ModelKind m) {
-  return m == engine::ModelKind::kLuGre || m == engine::ModelKind::kKarnopp;
+  return m == engine::model_kind<engine::LuGre> || m == engine::model_kind<engine::Karnopp>;
 }
 }  // namespace
 
@@ -1256,14 +1257,14 @@ engine::SimConfig StudySpec::unchecked_config(const DesignPoint& point) const {
 bool StudySpec::raises_F_S(const DesignPoint& point) const {
   if (is_analytic() || fs_below_fc_ != FsBelowFc::kRaiseToFc) return false;
   const engine::SimConfig c = unchecked_config(point);
-  return uses_static_friction(c.model) && c.friction.F_S < c.friction.F_C;
+  return uses_static_friction(c.model) && c.friction["F_S"] < c.friction["F_C"];
 }
 
 engine::SimConfig StudySpec::config_for(const DesignPoint& point) const {
   engine::SimConfig c = unchecked_config(point);
   if (fs_below_fc_ == FsBelowFc::kRaiseToFc && uses_static_friction(c.model) &&
-      c.friction.F_S < c.friction.F_C)
-    c.friction.F_S = c.friction.F_C;
+      c.friction["F_S"] < c.friction["F_C"])
+    c.friction["F_S"] = c.friction["F_C"];
   if (c.total_duration() > limits_.max_duration)
     throw engine::InvalidParameter("duration", c.total_duration(),
                            "exceeds the limit of " + fmt(limits_.max_duration) + " s");

@@ -41,7 +41,7 @@ measured::MeasuredConditions short_conditions(double va) {
 
 measured::SynthOptions short_dataset(std::uint64_t seed) {
   measured::SynthOptions o;
-  o.model = engine::SimConfig::seed(engine::ModelKind::kLuGre, 0.0);
+  o.model = engine::SimConfig::seed(engine::model_kind<engine::LuGre>, 0.0);
   o.runs = {short_conditions(0.0), short_conditions(4e-3)};
   o.noise_sigma = 0.03;
   o.seed = seed;
@@ -139,7 +139,7 @@ void run_case(const HiddenCase& c) {
                             << ", hidden " << v.truth << " (tolerance " << c.rel_tol * 100 << " %)";
     if (c.kind == engine::ExtensionKind::kNone && s == 0) {
       // The base is recovered and the JSON has every field issue 5 asks for.
-      EXPECT_EQ(d.base_model, engine::ModelKind::kLuGre);
+      EXPECT_EQ(d.base_model, engine::model_kind<engine::LuGre>);
       ASSERT_GE(d.base_params.size(), 2u);
       EXPECT_NEAR(d.base_params[0].value, 11.1 * 1.06, 0.02 * 11.1 * 1.06);
       EXPECT_NEAR(d.base_params[1].value, 8.3 * 0.95, 0.02 * 8.3 * 0.95);
@@ -161,7 +161,7 @@ void run_case(const HiddenCase& c) {
 TEST(Diagnose, StopRequestedEndsTheDiagnosisWithDiagnosisCancelled) {
   const measured::MeasuredDataset data = measured::synthesize(short_dataset(11));
   DiagnoseOptions o;
-  o.models = {engine::ModelKind::kLuGre};
+  o.models = {engine::model_kind<engine::LuGre>};
   o.candidates = {engine::ExtensionKind::kViscous, engine::ExtensionKind::kDrift};
   o.max_evals_base = 20;
   o.max_evals_candidate = 20;

@@ -24,12 +24,12 @@ namespace {
 /// Feature SSE of the LuGre base at F_S = scale * F_S0 (F_C and v_s at the truth).
 double feature_sse(const detail::Problem& p, double scale) {
   detail::FitModel m;
-  m.base = engine::SimConfig::seed(engine::ModelKind::kLuGre, 0.0);
-  m.specs = detail::base_specs(engine::ModelKind::kLuGre, 8.3, 11.1);
+  m.base = engine::SimConfig::seed(engine::model_kind<engine::LuGre>, 0.0);
+  m.specs = detail::base_specs(engine::model_kind<engine::LuGre>, 8.3, 11.1);
   const engine::FrictionParams f;
-  const double F_S = f.F_S * scale;
+  const double F_S = f["F_S"] * scale;
   const detail::Evaluation e =
-      detail::evaluate(p, m, {F_S, f.F_C / F_S, f.v_s}, detail::Span::kFeatures, 0);
+      detail::evaluate(p, m, {F_S, f["F_C"] / F_S, f["v_s"]}, detail::Span::kFeatures, 0);
   EXPECT_TRUE(e.ok) << e.reason;
   return e.sse_fit;
 }
@@ -44,7 +44,7 @@ double feature_sse(const detail::Problem& p, double scale) {
 // (anchor_tau = NaN) they ripple with the phase, which shows that the scenario stresses it.
 TEST(DiagnoseFeatures, LaterStagesAreScoredFromTheMeasuredPhaseOfTheStillCycle) {
   measured::SynthOptions s;
-  s.model = engine::SimConfig::seed(engine::ModelKind::kLuGre, 0.0);
+  s.model = engine::SimConfig::seed(engine::model_kind<engine::LuGre>, 0.0);
   measured::MeasuredConditions c;
   c.va = 1.5e-3;
   c.t_on = 10.0;

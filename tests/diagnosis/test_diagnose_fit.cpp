@@ -42,20 +42,20 @@ TEST(DiagnoseFit, BaseCalibrationReachesTheValleyFloorOnTheSeedsLongRuns) {
 
   // The true model: LuGre with the hidden viscous term.
   detail::FitModel truth;
-  truth.base = engine::SimConfig::seed(engine::ModelKind::kLuGre, 0.0);
+  truth.base = engine::SimConfig::seed(engine::model_kind<engine::LuGre>, 0.0);
   truth.base.extension.kind = engine::ExtensionKind::kViscous;
-  truth.specs = detail::base_specs(engine::ModelKind::kLuGre, 8.3, 11.1);
+  truth.specs = detail::base_specs(engine::model_kind<engine::LuGre>, 8.3, 11.1);
   const auto ext = detail::extension_specs(engine::ExtensionKind::kViscous);
   truth.specs.insert(truth.specs.end(), ext.begin(), ext.end());
   const engine::FrictionParams& f = so.model.friction;
-  const std::vector<double> th_true = {f.F_S, f.F_C / f.F_S, f.v_s, 1.0};
+  const std::vector<double> th_true = {f["F_S"], f["F_C"] / f["F_S"], f["v_s"], 1.0};
   const double rms_true = fit_rms(p, truth, th_true);
 
   // The data-driven start diagnose() uses: stage-1 mean and amplitude.
   const detail::StartLevels start = detail::data_driven_start(p);
   detail::FitModel base;
-  base.base = engine::SimConfig::seed(engine::ModelKind::kLuGre, 0.0);
-  base.specs = detail::base_specs(engine::ModelKind::kLuGre, start.F_C0, start.F_S0);
+  base.base = engine::SimConfig::seed(engine::model_kind<engine::LuGre>, 0.0);
+  base.specs = detail::base_specs(engine::model_kind<engine::LuGre>, start.F_C0, start.F_S0);
   std::vector<double> init;
   for (const auto& s : base.specs) init.push_back(s.init);
   const double rms_init = fit_rms(p, base, init);
@@ -74,6 +74,6 @@ TEST(DiagnoseFit, BaseCalibrationReachesTheValleyFloorOnTheSeedsLongRuns) {
   EXPECT_LT(rms_fit, 1.03 * rms_true) << "start " << rms_init << " N, truth " << rms_true << " N";
   // And not by an offset alone: F_S within 0.2 % (the viscous term's 1 N s/m x ~0.02 m/s slip
   // velocity is absorbed by F_C, which is therefore not compared).
-  EXPECT_NEAR(b.theta[0], f.F_S, 2e-3 * f.F_S);
+  EXPECT_NEAR(b.theta[0], f["F_S"], 2e-3 * f["F_S"]);
   RecordProperty("fit_rms_mN", static_cast<int>(std::lround(1e3 * rms_fit)));
 }

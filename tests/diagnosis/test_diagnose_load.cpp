@@ -16,10 +16,10 @@ using namespace stickslip;
 
 /// Mean F_d [N] over the vibrating stage (after 0.2 s of settling), LuGre as in the suite.
 double vibrating_level(double va, double eta, double phi) {
-  engine::SimConfig c = engine::SimConfig::seed(engine::ModelKind::kLuGre, va);
-  c.friction.F_S = 11.1 * 1.06;
-  c.friction.F_C = 8.3 * 0.95;
-  c.friction.v_s = 3.5e-4 * 0.92;
+  engine::SimConfig c = engine::SimConfig::seed(engine::model_kind<engine::LuGre>, va);
+  c.friction["F_S"] = 11.1 * 1.06;
+  c.friction["F_C"] = 8.3 * 0.95;
+  c.friction["v_s"] = 3.5e-4 * 0.92;
   c.stages = {engine::Stage{3.0, 0.0, 1500}, engine::Stage{1.5, va, 1500}};  // the CI datasets
   if (eta > 0) {
     c.extension.kind = engine::ExtensionKind::kNormalLoadModulation;

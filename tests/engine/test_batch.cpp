@@ -7,6 +7,7 @@
 #include <random>
 #include <string>
 
+#include "engine/result_compare.h"
 #include "stickslip/engine/batch.h"
 #include "stickslip/engine/extensions.h"
 #include "stickslip/engine/exp.h"
@@ -28,7 +29,7 @@ SimConfig short_cfg(ModelKind m, double dt) {
 
 double dt_for(ModelKind m) {
   // LuGre/Dahl need dt well below the bristle stability limit (~5e-6 s); the others do not.
-  return (m == ModelKind::kLuGre || m == ModelKind::kDahl) ? 2e-6 : 1e-5;
+  return (m == model_kind<LuGre> || m == model_kind<Dahl>) ? 2e-6 : 1e-5;
 }
 
 // Lanes with different drive and friction parameters (11 lanes: a full chunk plus a partial one).
@@ -36,37 +37,16 @@ std::vector<SimConfig> varied_lanes(ModelKind m) {
   std::vector<SimConfig> cfgs;
   for (int i = 0; i < 11; ++i) {
     SimConfig c = short_cfg(m, dt_for(m));
-    c.friction.F_S = 11.1 - 0.2 * i;
-    c.friction.F_C = 8.3 - 0.1 * (i % 4);
+    c.friction["F_S"] = 11.1 - 0.2 * i;
+    c.friction["F_C"] = 8.3 - 0.1 * (i % 4);
     c.drive.k_d = 11700.0 * (1.0 + 0.05 * i);
     c.drive.m = 0.665 * (1.0 + 0.03 * (i % 3));
     c.drive.v_d = 1e-3 * (1.0 + 0.1 * (i % 5));
     c.metrics.cycle_threshold = 0.2 + 0.05 * (i % 2);
-    if (m == ModelKind::kResetIntegrator) c.friction.alpha = 0.34 - 0.02 * i;
+    if (m == model_kind<ResetIntegrator>) c.friction["alpha"] = 0.34 - 0.02 * i;
     cfgs.push_back(c);
   }
   return cfgs;
-}
-
-void expect_same(const SimResult& a, const SimResult& b, const std::string& what) {
-  SCOPED_TRACE(what);
-  ASSERT_EQ(a.status, b.status) << a.reason << " | " << b.reason;
-  EXPECT_EQ(a.reason, b.reason);
-  EXPECT_EQ(a.t_end, b.t_end);
-  EXPECT_EQ(a.steps, b.steps);
-  EXPECT_EQ(a.x_end, b.x_end);
-  EXPECT_EQ(a.v_end, b.v_end);
-  EXPECT_EQ(a.s_end, b.s_end);
-  ASSERT_EQ(a.stages.size(), b.stages.size());
-  for (std::size_t k = 0; k < a.stages.size(); ++k) {
-    const StageMetrics &p = a.stages[k], &q = b.stages[k];
-    EXPECT_EQ(p.amplitude, q.amplitude) << "stage " << k;
-    EXPECT_EQ(p.amplitude_raw, q.amplitude_raw) << "stage " << k;
-    EXPECT_EQ(p.mean_force, q.mean_force) << "stage " << k;
-    EXPECT_EQ(p.mean_friction, q.mean_friction) << "stage " << k;
-    EXPECT_EQ(p.slip_events, q.slip_events) << "stage " << k;
-    EXPECT_EQ(p.mean_period, q.mean_period) << "stage " << k;
-  }
 }
 
 }  // namespace
@@ -87,46 +67,47 @@ TEST(Batch, ExpMatchesStdExp) {
 
 // Each lane of a batch is bitwise the trajectory and metrics of simulate() with rk4.
 TEST(Batch, LanesMatchSimulate) {
-  for (ModelKind m : {ModelKind::kLuGre, ModelKind::kKarnopp, ModelKind::kResetIntegrator,
-                      ModelKind::kDahl}) {
+  for (ModelKind m : {model_kind<LuGre>, model_kind<Karnopp>, model_kind<ResetIntegrator>,
+                      model_kind<Dahl>}) {
     const auto cfgs = varied_lanes(m);
     const auto batch = simulate_batch(cfgs);
     ASSERT_EQ(batch.size(), cfgs.size());
     for (std::size_t i = 0; i < cfgs.size(); ++i) {
       const SimResult single = simulate(cfgs[i]);
       ASSERT_EQ(single.status, RunStatus::kOk) << single.reason;
-      expect_same(batch[i], single, std::string(to_string(m)) + " lane " + std::to_string(i));
+      expect_same_result(batch[i], single,
+                         std::string(to_string(m)) + " lane " + std::to_string(i));
     }
   }
 }
 
 // Dahl with kappa != 1 takes the non-vectorised path; still identical to simulate().
 TEST(Batch, DahlGeneralKappaMatchesSimulate) {
-  auto cfgs = varied_lanes(ModelKind::kDahl);
+  auto cfgs = varied_lanes(model_kind<Dahl>);
   cfgs.resize(3);
-  cfgs[1].friction.kappa = 1.5;
+  cfgs[1].friction["kappa"] = 1.5;
   const auto batch = simulate_batch(cfgs);
   for (std::size_t i = 0; i < cfgs.size(); ++i)
-    expect_same(batch[i], simulate(cfgs[i]), "dahl lane " + std::to_string(i));
+    expect_same_result(batch[i], simulate(cfgs[i]), "dahl lane " + std::to_string(i));
 }
 
 // A lane's result does not depend on its neighbours, and the physics follows each lane's own
 // parameters: on the still base the Karnopp amplitude is 2 (F_S - F_slip) per lane.
 TEST(Batch, LanesDoNotContaminateEachOther) {
-  SimConfig probe = short_cfg(ModelKind::kKarnopp, 1e-5);
-  probe.friction.DV = 1e-8;
+  SimConfig probe = short_cfg(model_kind<Karnopp>, 1e-5);
+  probe.friction["DV"] = 1e-8;
   const SimResult alone = simulate_batch({probe})[0];
   std::vector<SimConfig> mixed;
   for (int i = 0; i < 8; ++i) {
     SimConfig c = probe;
-    c.friction.F_S = 9.0 + 0.5 * i;  // amplitudes 1.4 ... 8.4 N
+    c.friction["F_S"] = 9.0 + 0.5 * i;  // amplitudes 1.4 ... 8.4 N
     mixed.push_back(c);
   }
   mixed[5] = probe;
   const auto out = simulate_batch(mixed);
-  expect_same(out[5], alone, "probe among neighbours");
+  expect_same_result(out[5], alone, "probe among neighbours");
   for (int i = 0; i < 8; ++i) {
-    const double expected = 2.0 * (mixed[i].friction.F_S - mixed[i].friction.F_C);
+    const double expected = 2.0 * (mixed[i].friction["F_S"] - mixed[i].friction["F_C"]);
     EXPECT_NEAR(out[i].stages[0].amplitude, expected, 0.01 * expected) << "lane " << i;
   }
 }
@@ -134,14 +115,14 @@ TEST(Batch, LanesDoNotContaminateEachOther) {
 // One lane with a 100x stiffer contact makes RK4 unstable at this dt (dt k_t |v_r| / F_C far
 // above 2.8): it alone is reported diverged, exactly as simulate() reports it; the others finish.
 TEST(Batch, DivergingLaneIsReportedAlone) {
-  auto cfgs = varied_lanes(ModelKind::kLuGre);
+  auto cfgs = varied_lanes(model_kind<LuGre>);
   cfgs.resize(6);
-  cfgs[2].friction.k_t *= 100.0;
-  cfgs[2].friction.h_t *= 10.0;
+  cfgs[2].friction["k_t"] *= 100.0;
+  cfgs[2].friction["h_t"] *= 10.0;
   const auto out = simulate_batch(cfgs);
   const SimResult single = simulate(cfgs[2]);
   ASSERT_EQ(single.status, RunStatus::kDiverged);
-  expect_same(out[2], single, "diverging lane");
+  expect_same_result(out[2], single, "diverging lane");
   EXPECT_LT(out[2].t_end, cfgs[2].total_duration());
   EXPECT_NE(out[2].reason.find("reduce dt"), std::string::npos) << out[2].reason;
   for (const auto& st : out[2].stages) {
@@ -150,13 +131,13 @@ TEST(Batch, DivergingLaneIsReportedAlone) {
   }
   for (int i : {0, 1, 3, 4, 5}) {
     EXPECT_EQ(out[i].status, RunStatus::kOk) << "lane " << i;
-    expect_same(out[i], simulate(cfgs[i]), "healthy lane " + std::to_string(i));
+    expect_same_result(out[i], simulate(cfgs[i]), "healthy lane " + std::to_string(i));
   }
 }
 
 // A lane that is invalid on its own comes back kInvalid naming the field; the rest run.
 TEST(Batch, InvalidLaneIsReportedAlone) {
-  auto cfgs = varied_lanes(ModelKind::kKarnopp);
+  auto cfgs = varied_lanes(model_kind<Karnopp>);
   cfgs.resize(3);
   cfgs[1].drive.m = -1.0;
   const auto out = simulate_batch(cfgs);
@@ -170,7 +151,7 @@ TEST(Batch, InvalidLaneIsReportedAlone) {
 // Lanes that do not share the model, integrator, time grid or base motion are refused, with an
 // error naming the field and both values.
 TEST(Batch, IncompatibleBatchNamesTheField) {
-  const SimConfig base = short_cfg(ModelKind::kLuGre, 2e-6);
+  const SimConfig base = short_cfg(model_kind<LuGre>, 2e-6);
   auto expect_field = [&](SimConfig other, const std::string& field, const std::string& value) {
     const std::vector<SimConfig> cfgs = {base, other};
     std::string err;
@@ -186,7 +167,7 @@ TEST(Batch, IncompatibleBatchNamesTheField) {
     }
   };
   SimConfig c = base;
-  c.model = ModelKind::kKarnopp;
+  c.model = model_kind<Karnopp>;
   expect_field(c, "model", "karnopp");
   c = base;
   c.integrator.dt = 1e-6;
@@ -212,7 +193,7 @@ TEST(Batch, IncompatibleBatchNamesTheField) {
   expect_field(c, "effect", "viscous");
   // Parameters that only change a lane's own dynamics are fine.
   c = base;
-  c.friction.F_S = 10.0;
+  c.friction["F_S"] = 10.0;
   c.drive.k_d = 20000.0;
   c.metrics.cycle_threshold = 0.3;
   EXPECT_TRUE(batch_compatible({base, c}));

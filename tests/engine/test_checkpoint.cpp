@@ -50,13 +50,13 @@ TEST(Checkpoint, ContinuedRunIsBitwiseTheRunFromRest) {
     ModelKind model;
     ExtensionKind ext;
   };
-  for (const Case c : {Case{ModelKind::kLuGre, ExtensionKind::kNone},
-                       Case{ModelKind::kDahl, ExtensionKind::kNone},
-                       Case{ModelKind::kKarnopp, ExtensionKind::kNone},
-                       Case{ModelKind::kResetIntegrator, ExtensionKind::kNone},
-                       Case{ModelKind::kLuGre, ExtensionKind::kDwellTime},
-                       Case{ModelKind::kLuGre, ExtensionKind::kSensorDynamics},
-                       Case{ModelKind::kLuGre, ExtensionKind::kNormalLoadModulation}}) {
+  for (const Case c : {Case{model_kind<LuGre>, ExtensionKind::kNone},
+                       Case{model_kind<Dahl>, ExtensionKind::kNone},
+                       Case{model_kind<Karnopp>, ExtensionKind::kNone},
+                       Case{model_kind<ResetIntegrator>, ExtensionKind::kNone},
+                       Case{model_kind<LuGre>, ExtensionKind::kDwellTime},
+                       Case{model_kind<LuGre>, ExtensionKind::kSensorDynamics},
+                       Case{model_kind<LuGre>, ExtensionKind::kNormalLoadModulation}}) {
     SCOPED_TRACE(std::string(to_string(c.model)) + " + " + to_string(c.ext));
     // Run a: still after the first stage too; run b: vibrating at 4 mm/s after it.
     SimConfig a = two_stage(c.model, 0.0), b = two_stage(c.model, 4e-3);
@@ -76,7 +76,7 @@ TEST(Checkpoint, ContinuedRunIsBitwiseTheRunFromRest) {
     expect_identical(simulate_from(b, cp), from_rest);
     // The still stage's slips happened in both (Dahl has no static peak: no stick-slip); the
     // vibrating stage differs from a's.
-    if (c.model != ModelKind::kDahl) {
+    if (c.model != model_kind<Dahl>) {
       EXPECT_GT(from_rest.stages[0].slip_events, 0);
     }
     EXPECT_NE(from_rest.stages[1].mean_force, ra.stages[1].mean_force);
@@ -84,23 +84,23 @@ TEST(Checkpoint, ContinuedRunIsBitwiseTheRunFromRest) {
 }
 
 TEST(Checkpoint, RunsThatDoNotShareTheStageAreRefused) {
-  SimConfig a = two_stage(ModelKind::kLuGre, 0.0);
+  SimConfig a = two_stage(model_kind<LuGre>, 0.0);
   SimCheckpoint cp;
   ASSERT_EQ(simulate(a, 1, &cp).status, RunStatus::kOk);
-  SimConfig b = two_stage(ModelKind::kLuGre, 4e-3);
-  b.friction.F_S = 11.2;
+  SimConfig b = two_stage(model_kind<LuGre>, 4e-3);
+  b.friction["F_S"] = 11.2;
   SimResult r = simulate_from(b, cp);
   EXPECT_EQ(r.status, RunStatus::kInvalid);
   EXPECT_NE(r.reason.find("differs from the checkpoint's run in its first 1 stage"),
             std::string::npos)
       << r.reason;
-  b = two_stage(ModelKind::kLuGre, 4e-3);
+  b = two_stage(model_kind<LuGre>, 4e-3);
   b.stages[0].duration = 1.4;
   EXPECT_EQ(simulate_from(b, cp).status, RunStatus::kInvalid);
-  b = two_stage(ModelKind::kLuGre, 4e-3);
+  b = two_stage(model_kind<LuGre>, 4e-3);
   b.integrator.kind = IntegratorKind::kRk4;
   EXPECT_NE(simulate_from(b, cp).reason.find("adaptive"), std::string::npos);
-  EXPECT_NE(simulate_from(two_stage(ModelKind::kLuGre, 4e-3), SimCheckpoint{}).reason.find("empty"),
+  EXPECT_NE(simulate_from(two_stage(model_kind<LuGre>, 4e-3), SimCheckpoint{}).reason.find("empty"),
             std::string::npos);
   // No checkpoint where there is no later stage to continue, or with a fixed-step integrator.
   SimConfig one = a;
@@ -114,7 +114,7 @@ TEST(Checkpoint, RunsThatDoNotShareTheStageAreRefused) {
   simulate(rk, 1, &cp);
   EXPECT_TRUE(cp.empty());
   // same_first_stages looks at the shared stages only.
-  EXPECT_TRUE(same_first_stages(a, two_stage(ModelKind::kLuGre, 4e-3), 1));
-  EXPECT_FALSE(same_first_stages(a, two_stage(ModelKind::kLuGre, 4e-3), 2));
+  EXPECT_TRUE(same_first_stages(a, two_stage(model_kind<LuGre>, 4e-3), 1));
+  EXPECT_FALSE(same_first_stages(a, two_stage(model_kind<LuGre>, 4e-3), 2));
   EXPECT_FALSE(same_first_stages(a, one, 2));
 }

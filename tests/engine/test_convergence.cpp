@@ -23,7 +23,7 @@ double order(double e_coarse, double e_fine) { return std::log2(e_coarse / e_fin
 // Smooth case: LuGre with a vibrating base and no stick (v_r never crosses the Stribeck kink
 // region abruptly), over 2 ms. Classic RK4 must show order 4.
 TEST(Convergence, Rk4IsFourthOrderOnSmoothCase) {
-  SimConfig c = SimConfig::seed(ModelKind::kDahl, 0.0);
+  SimConfig c = SimConfig::seed(model_kind<Dahl>, 0.0);
   c.stages = {Stage{2e-3, 0.0, 1500.0}};
   // Start sliding steadily so that v_r > 0 throughout (|v_r| is smooth away from 0).
   c.drive.v_d = 1e-3;
@@ -43,7 +43,7 @@ TEST(Convergence, Rk4IsFourthOrderOnSmoothCase) {
 // Reference: the adaptive integrator at tolerance 1e-12 (agrees with rk4_event at dt = 1e-7 to
 // 1e-10 N).
 TEST(Convergence, SwitchLocationRestoresOrder) {
-  for (auto m : {ModelKind::kKarnopp, ModelKind::kResetIntegrator}) {
+  for (auto m : {model_kind<Karnopp>, model_kind<ResetIntegrator>}) {
     SimConfig c = SimConfig::seed(m, 0.0);
     c.stages = {Stage{1.0, 0.0, 1500.0}};  // breakaway at ~0.9 s, slip ends ~0.93 s
     c.integrator.kind = IntegratorKind::kAdaptive;
@@ -58,7 +58,7 @@ TEST(Convergence, SwitchLocationRestoresOrder) {
     const double p1 = envelope(IntegratorKind::kRk4, 2e-5);
     const double p2 = envelope(IntegratorKind::kRk4, 1e-5);
     // Event-located steps over a factor 4 in dt (errors near 1e-10 N wobble step to step).
-    const double dt1 = m == ModelKind::kKarnopp ? 6.4e-4 : 1.6e-4;
+    const double dt1 = m == model_kind<Karnopp> ? 6.4e-4 : 1.6e-4;
     const double e1 = x_error(c, IntegratorKind::kRk4Event, dt1, x_ref);
     const double e2 = x_error(c, IntegratorKind::kRk4Event, dt1 / 4, x_ref);
     RecordProperty(std::string(to_string(m)) + "_order_plain", std::to_string(order(p1, p2)));
@@ -74,7 +74,7 @@ TEST(Convergence, SwitchLocationRestoresOrder) {
 
 // The adaptive integrator converges to the fine RK4 reference as the tolerance shrinks.
 TEST(Convergence, AdaptiveMatchesReference) {
-  for (auto m : {ModelKind::kLuGre, ModelKind::kKarnopp, ModelKind::kResetIntegrator}) {
+  for (auto m : {model_kind<LuGre>, model_kind<Karnopp>, model_kind<ResetIntegrator>}) {
     SimConfig c = SimConfig::seed(m, 0.0);
     c.stages = {Stage{1.0, 0.0, 1500.0}};
     c.integrator.kind = IntegratorKind::kRk4Event;
@@ -97,7 +97,7 @@ TEST(Convergence, AdaptiveMatchesReference) {
 // v_a = 4 mm/s (300 reversals of v_r), against RK4 at dt = 1e-7 on the final drive force.
 // Measured: LuGre 6.7e-5 N at rtol 1e-4 and 1.8e-8 N at rtol 1e-8; Dahl 4.6e-5 / 6e-10 N.
 TEST(Convergence, AdaptiveVibratingMatchesReference) {
-  for (auto m : {ModelKind::kLuGre, ModelKind::kDahl}) {
+  for (auto m : {model_kind<LuGre>, model_kind<Dahl>}) {
     SimConfig c = SimConfig::seed(m, 4e-3);
     c.stages = {Stage{0.05, 0.0, 1500.0}, Stage{0.1, 4e-3, 1500.0}};
     c.integrator.kind = IntegratorKind::kRk4;

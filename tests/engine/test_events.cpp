@@ -16,7 +16,7 @@ using namespace stickslip::engine;
 TEST(EventLocation, Rk4EventSmallStepKarnoppDoesNotChatter) {
   // Both grids made the old code chatter (3.9e7 and 3.0e7 switches in these 3 s).
   for (double dt : {1e-7, 1.3e-7}) {
-    SimConfig c = SimConfig::seed(ModelKind::kKarnopp, 0.0);
+    SimConfig c = SimConfig::seed(model_kind<Karnopp>, 0.0);
     c.stages = {Stage{3.0, 0.0, 1500.0}};
     c.integrator.kind = IntegratorKind::kRk4Event;
     c.integrator.dt = dt;
@@ -34,7 +34,7 @@ TEST(EventLocation, Rk4EventSmallStepKarnoppDoesNotChatter) {
 // The same at a vibrating base (edge sliding, v_a = 0.2 mm/s), and rk4_event agrees with the
 // adaptive integrator on the mean force.
 TEST(EventLocation, Rk4EventSmallStepKarnoppVibratingAgreesWithAdaptive) {
-  SimConfig c = SimConfig::seed(ModelKind::kKarnopp, 2e-4);
+  SimConfig c = SimConfig::seed(model_kind<Karnopp>, 2e-4);
   c.stages = {Stage{1.0, 0.0, 1500.0}, Stage{0.5, 2e-4, 1500.0}};
   c.integrator.kind = IntegratorKind::kRk4Event;
   c.integrator.dt = 2e-7;
@@ -58,7 +58,7 @@ TEST(EventLocation, Rk4EventSmallStepKarnoppVibratingAgreesWithAdaptive) {
 // off afterwards (the ~1e-2 N RMS "adaptive vs rk4_event bias" over 20 s). rk4_event at
 // dt = 1e-6 (steps 100x shorter) locates it correctly; the two must now agree to 1e-6 N.
 TEST(EventLocation, AdaptiveKarnoppBreakawayOnTime) {
-  SimConfig c = SimConfig::seed(ModelKind::kKarnopp, 0.0);
+  SimConfig c = SimConfig::seed(model_kind<Karnopp>, 0.0);
   c.stages = {Stage{2.0, 0.0, 1500.0}};  // breakaways at ~0.93 s and ~1.46 s
   c.integrator.kind = IntegratorKind::kRk4Event;
   c.integrator.dt = 1e-6;

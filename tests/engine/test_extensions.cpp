@@ -91,8 +91,8 @@ TEST(Extensions, NeutralSizeReproducesBase) {
       w = std::max(w, std::fabs(a.trace[i].F_d - b.trace[i].F_d));
     return w;
   };
-  for (ModelKind m : {ModelKind::kDahl, ModelKind::kKarnopp, ModelKind::kResetIntegrator,
-                      ModelKind::kLuGre}) {
+  for (ModelKind m : {model_kind<Dahl>, model_kind<Karnopp>, model_kind<ResetIntegrator>,
+                      model_kind<LuGre>}) {
     for (IntegratorKind integ : {IntegratorKind::kAdaptive, IntegratorKind::kRk4Event}) {
       SimConfig base = short_run(m, 4e-3, 1.5, 1.0);
       base.integrator.kind = integ;
@@ -125,7 +125,7 @@ TEST(Extensions, NeutralSizeReproducesBase) {
 // Viscous: in steady sliding (Dahl on a still base slides at v_d) the drive force rises by
 // sigma2 v_d.
 TEST(Extensions, ViscousRaisesSlidingForceBySigma2TimesV) {
-  SimConfig c = short_run(ModelKind::kDahl, 0.0);
+  SimConfig c = short_run(model_kind<Dahl>, 0.0);
   const double base = run_ok(c).stages[1].mean_force;
   EXPECT_NEAR(base, 8.3, 0.01);
   c.extension.kind = ExtensionKind::kViscous;
@@ -139,8 +139,8 @@ TEST(Extensions, ViscousRaisesSlidingForceBySigma2TimesV) {
 TEST(Extensions, StribeckExponentFollowsSteadyStateCurve) {
   double prev = 0;
   for (double delta : {2.0, 1.0, 0.7}) {
-    SimConfig c = short_run(ModelKind::kLuGre, 0.0, 2.0, 2.0);
-    c.friction.h_v = 2000.0;
+    SimConfig c = short_run(model_kind<LuGre>, 0.0, 2.0, 2.0);
+    c.friction["h_v"] = 2000.0;
     c.extension.kind = ExtensionKind::kStribeckShape;
     c.extension.stribeck_delta = delta;
     const SimResult r = run_ok(c);
@@ -156,8 +156,8 @@ TEST(Extensions, StribeckExponentFollowsSteadyStateCurve) {
 // Dwell time: the Coulomb spring-block breaks away at P = F_S + A ln(1 + t_stick / tau), with
 // t_stick = 2 (P - F_slip) / (k_d v_d), so the amplitude 2 (P - F_slip) grows.
 TEST(Extensions, DwellTimeRaisesBreakawayByLogOfStickTime) {
-  SimConfig c = short_run(ModelKind::kKarnopp, 0.0, 4.0, 1.0);
-  c.friction.DV = 1e-8;
+  SimConfig c = short_run(model_kind<Karnopp>, 0.0, 4.0, 1.0);
+  c.friction["DV"] = 1e-8;
   const double amp0 = run_ok(c).stages[0].amplitude;
   c.extension.kind = ExtensionKind::kDwellTime;
   c.extension.dwell_A = 0.4;
@@ -188,7 +188,7 @@ TEST(Extensions, WavinessModulatesForceAlongTrack) {
       }
     return 2 * std::hypot(re, im) / n;
   };
-  SimConfig c = short_run(ModelKind::kDahl, 0.0, 4.0, 4.0);
+  SimConfig c = short_run(model_kind<Dahl>, 0.0, 4.0, 4.0);
   c.trace.rate = 1000;
   const double lambda = 0.5e-3;  // 8 wavelengths over the 4 mm of stage 2
   EXPECT_LT(component(run_ok(c), lambda), 0.01);
@@ -202,7 +202,7 @@ TEST(Extensions, WavinessModulatesForceAlongTrack) {
 
 // Drift: Dahl's sliding force grows as F_C (1 + gamma x), x ~ v_d t.
 TEST(Extensions, DriftMakesMeanLevelGrowWithDistance) {
-  SimConfig c = short_run(ModelKind::kDahl, 0.0, 4.0, 4.0);
+  SimConfig c = short_run(model_kind<Dahl>, 0.0, 4.0, 4.0);
   c.extension.kind = ExtensionKind::kDrift;
   c.extension.drift_gamma = 10.0;  // +10 % per cm
   c.trace.rate = 1000;
@@ -219,7 +219,7 @@ TEST(Extensions, DriftMakesMeanLevelGrowWithDistance) {
 // rigid Coulomb contact, so the mean drive force is the average of
 // F_C (1 + eta sin(theta + phi)) sgn(v_d - v_a cos theta) over a period.
 TEST(Extensions, NormalLoadModulationShiftsVibratingMeanOnly) {
-  SimConfig c = short_run(ModelKind::kDahl, 4e-3, 2.0, 2.0);
+  SimConfig c = short_run(model_kind<Dahl>, 4e-3, 2.0, 2.0);
   const SimResult r0 = run_ok(c);
   c.extension.kind = ExtensionKind::kNormalLoadModulation;
   c.extension.load_eta = 0.3;
@@ -242,8 +242,8 @@ TEST(Extensions, NormalLoadModulationShiftsVibratingMeanOnly) {
 // Sensor dynamics: during stick F_d ramps at k_d v_d, and a second-order sensor follows a ramp
 // with the lag 2 zeta / omega_n; the physics (metrics) is unchanged.
 TEST(Extensions, SensorDynamicsLagsTheRampAndKeepsPhysics) {
-  SimConfig c = short_run(ModelKind::kKarnopp, 0.0, 3.0, 1.0);
-  c.friction.DV = 1e-8;
+  SimConfig c = short_run(model_kind<Karnopp>, 0.0, 3.0, 1.0);
+  c.friction["DV"] = 1e-8;
   c.trace.rate = 2000;
   const SimResult r0 = run_ok(c);
   c.extension.kind = ExtensionKind::kSensorDynamics;
@@ -279,7 +279,7 @@ TEST(Extensions, SensorDynamicsLagsTheRampAndKeepsPhysics) {
 // Drive damping: dissipation in the drive shrinks the stick-slip amplitude monotonically, and
 // adds nothing while the body slides at v_d (Dahl, still base).
 TEST(Extensions, DriveDampingDampsStickSlip) {
-  SimConfig c = short_run(ModelKind::kKarnopp, 0.0, 4.0, 1.0);
+  SimConfig c = short_run(model_kind<Karnopp>, 0.0, 4.0, 1.0);
   c.extension.kind = ExtensionKind::kDriveDamping;
   double prev = 1e9;
   for (double cd : {0.0, 10.0, 30.0, 60.0}) {
@@ -288,7 +288,7 @@ TEST(Extensions, DriveDampingDampsStickSlip) {
     EXPECT_LT(amp, prev - (cd > 0 ? 0.1 : 0.0)) << cd;
     prev = amp;
   }
-  SimConfig d = short_run(ModelKind::kDahl, 0.0);
+  SimConfig d = short_run(model_kind<Dahl>, 0.0);
   const double base = run_ok(d).stages[1].mean_force;
   d.extension.kind = ExtensionKind::kDriveDamping;
   d.extension.c_d = 50.0;

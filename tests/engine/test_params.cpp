@@ -23,13 +23,13 @@ std::string set_error(const char* name, double v) {
 }  // namespace
 
 TEST(Params, DefaultsAreTheSeeds) {
-  const SimConfig c = SimConfig::seed(ModelKind::kLuGre, 0.2e-3);
+  const SimConfig c = SimConfig::seed(model_kind<LuGre>, 0.2e-3);
   EXPECT_DOUBLE_EQ(c.drive.m, 0.665);
   EXPECT_DOUBLE_EQ(c.drive.k_d, 11700);
   EXPECT_DOUBLE_EQ(c.drive.v_d, 1e-3);
-  EXPECT_DOUBLE_EQ(c.friction.k_t, 71.318e6);
-  EXPECT_DOUBLE_EQ(c.friction.s0, 1.1e-7);
-  EXPECT_DOUBLE_EQ(c.friction.v_s, 3.5e-4);
+  EXPECT_DOUBLE_EQ(c.friction["k_t"], 71.318e6);
+  EXPECT_DOUBLE_EQ(c.friction["s0"], 1.1e-7);
+  EXPECT_DOUBLE_EQ(c.friction["v_s"], 3.5e-4);
   ASSERT_EQ(c.stages.size(), 2u);
   EXPECT_DOUBLE_EQ(c.stages[0].v_a, 0.0);
   EXPECT_DOUBLE_EQ(c.stages[1].v_a, 0.2e-3);
@@ -54,14 +54,14 @@ TEST(Params, RejectsNonPositiveAndNonFiniteWithFieldAndValue) {
 }
 
 TEST(Params, CrossFieldConstraintsNamedByIsValid) {
-  SimConfig c = SimConfig::seed(ModelKind::kLuGre, 0);
-  c.friction.F_S = 5.0;  // below F_C = 8.3
+  SimConfig c = SimConfig::seed(model_kind<LuGre>, 0);
+  c.friction["F_S"] = 5.0;  // below F_C = 8.3
   std::vector<std::string> errors;
   EXPECT_FALSE(c.IsValid(&errors));
   ASSERT_EQ(errors.size(), 1u);
   EXPECT_NE(errors[0].find("F_S = 5"), std::string::npos);
   EXPECT_NE(errors[0].find("F_C"), std::string::npos);
-  c.friction.k_t = -1;
+  c.friction["k_t"] = -1;
   c.stages[1].duration = std::nan("");
   errors.clear();
   EXPECT_FALSE(c.IsValid(&errors));
@@ -69,8 +69,8 @@ TEST(Params, CrossFieldConstraintsNamedByIsValid) {
 }
 
 TEST(Params, InvalidConfigGivesInvalidRunNotACrash) {
-  SimConfig c = SimConfig::seed(ModelKind::kKarnopp, 0);
-  c.friction.DV = -1;
+  SimConfig c = SimConfig::seed(model_kind<Karnopp>, 0);
+  c.friction["DV"] = -1;
   const SimResult r = simulate(c);
   EXPECT_EQ(r.status, RunStatus::kInvalid);
   EXPECT_NE(r.reason.find("DV = -1"), std::string::npos);
@@ -78,7 +78,7 @@ TEST(Params, InvalidConfigGivesInvalidRunNotACrash) {
 }
 
 TEST(Params, DerivedSettersKeepTheRunConsistent) {
-  SimConfig c = SimConfig::seed(ModelKind::kLuGre, 1e-3);
+  SimConfig c = SimConfig::seed(model_kind<LuGre>, 1e-3);
   set_parameter(c, "t_on", 4.0);
   EXPECT_DOUBLE_EQ(c.stages[0].duration, 4.0);
   EXPECT_DOUBLE_EQ(c.total_duration(), 20.0);

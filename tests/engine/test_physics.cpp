@@ -36,8 +36,8 @@ Intervals intervals(const std::vector<TraceSample>& tr, double v_threshold, doub
 
 // Karnopp with a small band on a still base is the textbook Coulomb spring-block.
 TEST(Physics, CoulombSpringBlockKarnopp) {
-  SimConfig c = SimConfig::seed(ModelKind::kKarnopp, 0.0);
-  c.friction.DV = 1e-8;  // creep inside the band is then 1e-5 of v_d
+  SimConfig c = SimConfig::seed(model_kind<Karnopp>, 0.0);
+  c.friction["DV"] = 1e-8;  // creep inside the band is then 1e-5 of v_d
   c.stages = {Stage{4.0, 0.0, 1500.0}};
   c.metrics.settle_fraction = 0.3;
   c.trace.rate = 2e5;
@@ -67,7 +67,7 @@ TEST(Physics, CoulombSpringBlockKarnopp) {
 TEST(Physics, RigidCoulombVibrationLawDahl) {
   const double F_C = 8.3, v_d = 1e-3;
   for (double v_a : {2e-3, 4e-3}) {
-    const SimResult r = simulate(SimConfig::seed(ModelKind::kDahl, v_a));
+    const SimResult r = simulate(SimConfig::seed(model_kind<Dahl>, v_a));
     ASSERT_EQ(r.status, RunStatus::kOk) << r.reason;
     const double law = F_C * 2 / M_PI * std::asin(v_d / v_a);
     EXPECT_NEAR(r.stages[1].mean_force, law, 0.05 * law) << "v_a = " << v_a;
@@ -77,8 +77,8 @@ TEST(Physics, RigidCoulombVibrationLawDahl) {
 
 // Momentum balance: over a settled window, mean F_d = mean F_f (m dv/dt averages to ~0).
 TEST(Physics, MomentumBalanceEveryModel) {
-  for (auto m : {ModelKind::kDahl, ModelKind::kKarnopp, ModelKind::kResetIntegrator,
-                 ModelKind::kLuGre}) {
+  for (auto m : {model_kind<Dahl>, model_kind<Karnopp>, model_kind<ResetIntegrator>,
+                 model_kind<LuGre>}) {
     for (double v_a : {0.0, 4e-3}) {
       SimConfig c = SimConfig::seed(m, v_a);
       c.stages[0].duration = c.stages[1].duration = 6.0;
@@ -95,7 +95,7 @@ TEST(Physics, MomentumBalanceEveryModel) {
 
 // A step that is far too large for explicit RK4 ends in 'diverged' with a reason, never NaN.
 TEST(Physics, TooLargeStepDivergesCleanly) {
-  SimConfig c = SimConfig::seed(ModelKind::kLuGre, 4e-3);
+  SimConfig c = SimConfig::seed(model_kind<LuGre>, 4e-3);
   c.integrator.kind = IntegratorKind::kRk4;
   c.integrator.dt = 5e-5;
   const SimResult r = simulate(c);

@@ -22,10 +22,10 @@ const SimResult& run(ModelKind m, double v_a_mm_s) {
 }
 const StageMetrics& still(ModelKind m) { return run(m, 0.0).stages.at(0); }
 const StageMetrics& vib(ModelKind m, double v_a) { return run(m, v_a).stages.at(1); }
-constexpr auto kDahl = ModelKind::kDahl;
-constexpr auto kKarnopp = ModelKind::kKarnopp;
-constexpr auto kReset = ModelKind::kResetIntegrator;
-constexpr auto kLuGre = ModelKind::kLuGre;
+constexpr auto kDahl = model_kind<Dahl>;
+constexpr auto kKarnopp = model_kind<Karnopp>;
+constexpr auto kReset = model_kind<ResetIntegrator>;
+constexpr auto kLuGre = model_kind<LuGre>;
 }  // namespace
 
 TEST(SeedNarrative, Fig6StillBase) {

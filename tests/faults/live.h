@@ -31,7 +31,7 @@ using server::testing::study_json;
 /// one base model and one candidate with small budgets: tens of seconds on a busy machine).
 inline std::string diagnosis_body(const fs::path& dir) {
   measured::SynthOptions o;
-  o.model = engine::SimConfig::seed(engine::ModelKind::kLuGre, 0.0);
+  o.model = engine::SimConfig::seed(engine::model_kind<engine::LuGre>, 0.0);
   measured::MeasuredConditions c;
   c.t_on = 1.5;
   c.duration = 3.0;

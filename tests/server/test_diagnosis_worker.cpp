@@ -43,7 +43,7 @@ std::string to_csv(const measured::MeasuredRun& r) {
 /// with tiny options, so that a real diagnosis takes seconds.
 json small_request() {
   measured::SynthOptions o;
-  o.model = engine::SimConfig::seed(engine::ModelKind::kLuGre, 0.0);
+  o.model = engine::SimConfig::seed(engine::model_kind<engine::LuGre>, 0.0);
   measured::MeasuredConditions c;
   c.t_on = 1.5;
   c.duration = 3.0;
@@ -120,7 +120,7 @@ TEST(DiagnosisWorker, RealDiagnosisStoresExactlyTheLibrarysResult) {
   for (const auto& [k, v] : req["files"].items()) files[k] = v;
   const measured::MeasuredDataset data = measured::load_measured(req["manifest"], files);
   diagnosis::DiagnoseOptions o;
-  o.models = {engine::ModelKind::kLuGre};
+  o.models = {engine::model_kind<engine::LuGre>};
   o.candidates = {engine::ExtensionKind::kViscous};
   o.max_evals_base = 12;
   o.max_evals_candidate = 10;

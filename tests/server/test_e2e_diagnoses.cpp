@@ -43,7 +43,7 @@ class DiagnosesEndToEnd : public ::testing::Test {
   /// A short synthetic dataset on disk (2 LuGre runs of 6 s, vibration from 3 s, 500 Hz).
   fs::path write_dataset() {
     measured::SynthOptions o;
-    o.model = engine::SimConfig::seed(engine::ModelKind::kLuGre, 0.0);
+    o.model = engine::SimConfig::seed(engine::model_kind<engine::LuGre>, 0.0);
     measured::MeasuredConditions c;
     c.t_on = 3.0;
     c.duration = 6.0;

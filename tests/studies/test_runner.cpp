@@ -283,7 +283,7 @@ TEST(Runner, AnalyticStudyStoresTheFunctionValue) {
 // different model does not, and conditions that match no measured run give no RMSE.
 TEST(Runner, RmseAgainstMeasuredDataOfTheSameConditions) {
   TempDir dir;
-  engine::SimConfig truth = engine::SimConfig::seed(engine::ModelKind::kLuGre, 0.2e-3);
+  engine::SimConfig truth = engine::SimConfig::seed(engine::model_kind<engine::LuGre>, 0.2e-3);
   truth.stages = {engine::Stage{0.6, 0.0, 1500.0}, engine::Stage{0.6, 0.2e-3, 1500.0}};
   truth.trace.rate = 4000;
   const engine::SimResult tr = engine::simulate(truth);

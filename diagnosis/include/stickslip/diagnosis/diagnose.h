@@ -53,8 +53,9 @@
 namespace stickslip::diagnosis {
 
 struct DiagnoseOptions {
-  std::vector<engine::ModelKind> models = {engine::ModelKind::kDahl, engine::ModelKind::kKarnopp,
-                                   engine::ModelKind::kResetIntegrator, engine::ModelKind::kLuGre};
+  std::vector<engine::ModelKind> models = {
+      engine::model_kind<engine::Dahl>, engine::model_kind<engine::Karnopp>,
+      engine::model_kind<engine::ResetIntegrator>, engine::model_kind<engine::LuGre>};
   std::vector<engine::ExtensionKind> candidates = engine::extension_catalogue();
   double fit_rate = 250.0;              ///< decimated samples per second [Hz]
   double holdout_fraction = 0.3;        ///< last part of every stage held out [-]
@@ -106,7 +107,7 @@ struct StageScore {
 };
 
 struct BaseCalibration {
-  engine::ModelKind model = engine::ModelKind::kLuGre;
+  engine::ModelKind model = engine::model_kind<engine::LuGre>;
   std::string status = "ok";  ///< "ok" or why the calibration failed
   std::vector<ParamEstimate> params;
   double offset = 0;           ///< fitted sensor offset [N]
@@ -198,7 +199,7 @@ struct RunHoldout {
 
 struct Diagnosis {
   std::string dataset;
-  engine::ModelKind base_model = engine::ModelKind::kLuGre;
+  engine::ModelKind base_model = engine::model_kind<engine::LuGre>;
   std::vector<ParamEstimate> base_params;
   std::string cause = "none";
   std::string best_candidate;  ///< lowest held-out RMSE, significant or not

@@ -15,6 +15,7 @@
 // Every field is validated when it is set through set_parameter(), and again as a whole by
 // SimConfig::IsValid(), which also checks the cross-field constraints (F_S >= F_C, ...).
 
+#include <array>
 #include <cstdint>
 #include <stdexcept>
 #include <string>
@@ -22,24 +23,11 @@
 #include <vector>
 
 #include "stickslip/engine/extensions.h"
+#include "stickslip/engine/invalid_parameter.h"
+#include "stickslip/engine/model_api.h"
+#include "stickslip/engine/registry.h"
 
 namespace stickslip::engine {
-
-/// Error for a bad user-supplied value. what() names the field and the value.
-class InvalidParameter : public std::invalid_argument {
- public:
-  InvalidParameter(std::string field, double value, const std::string& why);
-  InvalidParameter(std::string field, const std::string& value, const std::string& why);
-  const std::string& field() const noexcept { return field_; }
-
- private:
-  std::string field_;
-};
-
-enum class ModelKind { kDahl, kKarnopp, kResetIntegrator, kLuGre };
-const char* to_string(ModelKind m) noexcept;
-/// "dahl", "karnopp", "reset_integrator", "lugre"; throws InvalidParameter("model", ...).
-ModelKind model_from_string(std::string_view name);
 
 enum class IntegratorKind {
   kRk4,       ///< fixed-step classic RK4, the seed's ode4. Switching is not located.
@@ -50,33 +38,28 @@ enum class IntegratorKind {
 const char* to_string(IntegratorKind k) noexcept;
 IntegratorKind integrator_from_string(std::string_view name);
 
-/// Drive and body (seed values).
-struct Drive {
-  double m = 0.665;      ///< body mass [kg]
-  double k_d = 11700.0;  ///< drive stiffness [N/m]
-  double v_d = 1.0e-3;   ///< drive velocity [m/s]
-  double F_z = 29.4;     ///< external load [N]; informational (F_C and F_S are given directly)
-  bool operator==(const Drive&) const = default;
-};
-
-/// Friction parameters, flat: each model reads the fields it uses (Table 1 defaults).
-///   Dahl:             k_t, kappa, F_C
-///   Karnopp:          DV, F_S, F_C (the seed's F_slip; "F_slip" is accepted as an alias)
-///   Reset Integrator: k_t, beta, s0, alpha
-///   LuGre:            k_t, h_t, h_v, F_C, F_S, v_s
-struct FrictionParams {
-  double k_t = 71.318e6;  ///< tangential contact stiffness [N/m]
-  double kappa = 1.0;     ///< Dahl exponent [-]
-  double F_C = 8.3;       ///< Coulomb (sliding) friction force [N]; Karnopp's F_slip
-  double F_S = 11.1;      ///< static friction force [N]
-  double DV = 1.0e-5;     ///< Karnopp zero-velocity band half-width [m/s] (0.01 mm/s)
-  double beta = 4.869e3;  ///< Reset Integrator damping [N s/m] (eq. 15 gives 0.707 sqrt(k_t m))
-  double s0 = 1.1e-7;     ///< Reset Integrator maximum elastic strain [m] (1.1e-4 mm)
-  double alpha = 0.34;    ///< Reset Integrator stiction gain a [-]
-  double h_t = 1.377e4;   ///< LuGre bristle damping [N s/m] (eq. 21 with zeta = 1)
-  double h_v = 0.0;       ///< LuGre viscous damping [N s/m]
-  double v_s = 3.5e-4;    ///< LuGre Stribeck velocity [m/s]
+/// The friction parameters and options of every registered model (registry.h), by name: each
+/// model reads the ones in its traits table, and a parameter shared by several models (F_C, k_t
+/// ...) is one value. Defaults are the models' tables' (the seed's Table 1).
+class FrictionParams {
+ public:
+  FrictionParams() noexcept;
+  /// The parameter (or alias, e.g. F_slip = F_C) by name; InvalidParameter for an unknown name.
+  double& operator[](std::string_view name);
+  double operator[](std::string_view name) const;
+  /// By position in kFrictionParameters.
+  double value(std::size_t index) const noexcept { return values_[index]; }
+  double& value(std::size_t index) noexcept { return values_[index]; }
+  /// An option's choice index by name (see kFrictionOptions); InvalidParameter when unknown.
+  int option(std::string_view name) const;
+  int option_at(std::size_t index) const noexcept { return options_[index]; }
+  /// Sets an option by the name of the choice; InvalidParameter naming the option and value.
+  void set_option(std::string_view name, std::string_view choice);
   bool operator==(const FrictionParams&) const = default;
+
+ private:
+  std::array<double, kFrictionParameters.size()> values_;
+  std::array<int, kFrictionOptions.size()> options_;
 };
 
 /// One stage of a run: a duration and a vibration setting. v_a == 0 means the base is still.
@@ -91,8 +74,10 @@ struct Stage {
 struct IntegratorOptions {
   IntegratorKind kind = IntegratorKind::kAdaptive;
   double dt = 1.0e-6;      ///< fixed step for rk4 / rk4_event [s]; initial step for adaptive
-  // Adaptive error control is done in force units: the local error of x, x' and s is weighed as
-  // k_d |dx|, sqrt(k m) |dx'| and k_t |ds| [N] and kept below atol + rtol * max(F_S, F_C).
+  // Adaptive error control is done in force units: the local errors of x, x' and the model's
+  // internal states are weighed as k_d |dx| and by the model's error_weights (sqrt(k m) |dx'|,
+  // k_t |ds| ...) [N] and kept below atol + rtol * F_ref, F_ref the model's force scale
+  // (default max(F_S, F_C), the contact's friction level).
   double rtol = 1.0e-7;    ///< adaptive: relative local tolerance [-]
   double atol = 1.0e-7;    ///< adaptive: absolute local tolerance [N]
   double dt_max = 1.0e-4;  ///< adaptive: largest step [s]
@@ -113,7 +98,7 @@ struct TraceOptions {
 
 /// The whole specification of one simulation run.
 struct SimConfig {
-  ModelKind model = ModelKind::kLuGre;
+  ModelKind model = model_kind<LuGre>;
   Drive drive;
   FrictionParams friction;
   std::vector<Stage> stages = {Stage{10.0, 0.0, 1500.0}, Stage{10.0, 0.0, 1500.0}};
@@ -134,15 +119,19 @@ struct SimConfig {
 };
 
 /// Sets one parameter by its public name, validating its own domain (finite, > 0, ...).
-/// Names: model (use set_model), m, k_d, v_d, F_z, k_t, kappa, F_C, F_slip, F_S, DV, beta, s0,
-/// alpha, h_t, h_v, v_s, dt, rtol, dt_max, v_a (every stage after the first: the seed's stage 1
-/// is always the still base), f (every stage), t_on (start of stage 2 = duration of stage 1),
-/// duration (whole run; stage 1 keeps t_on when possible, the rest is stage 2..n in proportion),
-/// stage<i>.duration, stage<i>.v_a, stage<i>.f (i from 1), settle_fraction, cycle_threshold,
+/// Names: m, k_d, v_d, F_z, every friction parameter of every model and its alias
+/// (kFrictionParameters: k_t, F_C, F_slip, F_S, ...), dt, rtol, atol, dt_max, v_a (every stage
+/// after the first: the seed's stage 1 is always the still base), f (every stage), t_on (start
+/// of stage 2 = duration of stage 1), duration (whole run; stage 1 keeps t_on when possible,
+/// the rest is stage 2..n in proportion), stage<i>.duration, stage<i>.v_a, stage<i>.f (i from 1), settle_fraction, cycle_threshold,
 /// and the extension parameters (sigma2, stribeck_delta, dwell_A, ..., c_d; see extensions.h;
 /// the effect itself is chosen with set_extension).
 /// Throws InvalidParameter naming the field and the value.
 void set_parameter(SimConfig& cfg, std::string_view name, double value);
+/// Sets a model option (kFrictionOptions) by the name of its choice, e.g. ("law", "slip").
+void set_option(SimConfig& cfg, std::string_view name, std::string_view choice);
+/// The name of an option's current choice.
+std::string get_option(const SimConfig& cfg, std::string_view name);
 /// Chooses the catalogue effect by id ("none", "viscous", ...); its parameters keep their values.
 void set_extension(SimConfig& cfg, std::string_view effect);
 /// Reads a parameter by the same names (throws InvalidParameter for an unknown name).
@@ -150,5 +139,63 @@ double get_parameter(const SimConfig& cfg, std::string_view name);
 /// All names accepted by set_parameter for any configuration (the fixed ones, plus stage1.*,
 /// stage2.* ...).
 std::vector<std::string> parameter_names();
+
+/// Model M of cfg: its parameters validated against its table (InvalidParameter naming the field
+/// and the value), its options and the run's drive.
+template <class M>
+M make_model(const SimConfig& cfg);
+
+/// The run's force scale F_ref [N]: the model's own (force_scale()) when it has one, else the
+/// contact's friction level max(F_S, F_C). The adaptive tolerance is atol + rtol F_ref.
+double force_scale(const SimConfig& cfg);
+
+// ------------------------------------------------------------------ implementation
+
+/// "%.17g": the number as InvalidParameter prints it.
+std::string format_number(double v);
+
+/// Calls fail(field, value, why) for every parameter of M outside its allowed range and every
+/// broken constraint of M; returns false when it called it.
+template <class M, class Fail>
+bool visit_model_errors(const FrictionParams& p, Fail&& fail) {
+  bool ok = true;
+  for (std::size_t i = 0; i < std::size(M::kParams); ++i) {
+    const double v = p.value(static_cast<std::size_t>(kParamSlots<M>[i]));
+    if (std::string why = M::kParams[i].allowed.why_not(v); !why.empty()) {
+      ok = false;
+      fail(M::kParams[i].name, v, why);
+    }
+  }
+  for (const Constraint& c : registry_detail::constraints_of<M>()) {
+    const double a = p[c.param], b = p[c.at_least];
+    if (a == a && b == b && a < b) {  // NaN is reported above
+      ok = false;
+      fail(c.param, a, std::string("must be >= ") + c.at_least + " = " + format_number(b));
+    }
+  }
+  return ok;
+}
+
+template <class M>
+bool check_model(const FrictionParams& p, std::vector<std::string>* errors) {
+  return visit_model_errors<M>(p, [&](const char* field, double v, const std::string& why) {
+    if (errors) errors->push_back(std::string(field) + " = " + format_number(v) + ": " + why);
+  });
+}
+
+template <class M>
+M make_model(const SimConfig& cfg) {
+  visit_model_errors<M>(cfg.friction, [](const char* field, double v, const std::string& why) {
+    throw InvalidParameter(field, v, why);
+  });
+  std::array<double, std::size(M::kParams)> values;
+  for (std::size_t i = 0; i < values.size(); ++i)
+    values[i] = cfg.friction.value(static_cast<std::size_t>(kParamSlots<M>[i]));
+  constexpr auto option_defs = registry_detail::options_of<M>();
+  std::array<int, option_defs.size()> options;
+  for (std::size_t i = 0; i < options.size(); ++i)
+    options[i] = cfg.friction.option_at(static_cast<std::size_t>(kOptionSlots<M>[i]));
+  return M(ModelInputs(M::kParams, values, option_defs, options, cfg.drive));
+}
 
 }  // namespace stickslip::engine
