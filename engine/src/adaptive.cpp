@@ -21,6 +21,7 @@
 #include <type_traits>
 
 #include "integrators.h"
+#include "run_stepper.h"
 #include "stickslip/engine/exp.h"
 #include "system.h"
 
@@ -471,27 +472,38 @@ void adaptive(RunContext& ctx, const Sys& sys, const ErrorScaleT<typename Sys::S
   });
 }
 
+/// A model's weights of the local errors [N per unit] with the tolerance folded in.
+template <class M>
+ErrorScaleT<StateOf<M>> error_scale(const SimConfig& c, const M& model) {
+  const double f_ref = force_scale(c, model);
+  const double inv_tol = 1.0 / (c.integrator.atol + c.integrator.rtol * f_ref);
+  const auto w = model.error_weights(c.drive);
+  ErrorScaleT<StateOf<M>> es{c.drive.k_d, w.v, 0.0, inv_tol};  // no internal state: s stays 0
+  if constexpr (M::kStates > 0) es.k_t = w.z[0];
+  if constexpr (M::kStates > 1)
+    for (int q = 0; q < M::kStates - 1; ++q) es.k_zs[q] = w.z[q + 1];
+  return es;
+}
+
 }  // namespace
 
 void run_adaptive(RunContext& ctx) {
   const SimConfig& c = ctx.cfg;
   visit_model(c.model, [&]<class M>(std::type_identity<M>) {
     const M model = make_model<M>(c);
-    ctx.guard = make_guard(c, model);
-    ctx.primary = primary_state_fn(model);
-    const double f_ref = force_scale(c, model);
-    const double inv_tol = 1.0 / (c.integrator.atol + c.integrator.rtol * f_ref);
-    const auto w = model.error_weights(c.drive);
-    ErrorScaleT<StateOf<M>> es{c.drive.k_d, w.v, 0.0, inv_tol};  // no internal state: s stays 0
-    if constexpr (M::kStates > 0) es.k_t = w.z[0];
-    if constexpr (M::kStates > 1)
-      for (int q = 0; q < M::kStates - 1; ++q) es.k_zs[q] = w.z[q + 1];
-    if constexpr (M::kInfo.model_class == ModelClass::kSwitching) {
-      const typename M::Hybrid h(model, c.drive);
-      adaptive(ctx, HybridSys<typename M::Hybrid>{h}, es, initial_state(model, c.drive));
+    if constexpr (OwnStepper<M>) {  // the model's own integrator (run_stepper.h)
+      run_stepper(ctx, model);
     } else {
-      const auto scalar = scalar_form(model);
-      adaptive(ctx, SmoothSys<decltype(scalar)>{scalar}, es, initial_state(model, c.drive));
+      ctx.guard = make_guard(c, model);
+      ctx.primary = primary_state_fn(model);
+      const auto es = error_scale(c, model);
+      if constexpr (M::kInfo.model_class == ModelClass::kSwitching) {
+        const typename M::Hybrid h(model, c.drive);
+        adaptive(ctx, HybridSys<typename M::Hybrid>{h}, es, initial_state(model, c.drive));
+      } else {
+        const auto scalar = scalar_form(model);
+        adaptive(ctx, SmoothSys<decltype(scalar)>{scalar}, es, initial_state(model, c.drive));
+      }
     }
   });
 }

@@ -1,10 +1,13 @@
 // Fixed-step classic RK4 (the seed's ode4), plain and with located stick/slip switches.
 #include <cmath>
+#include <stdexcept>
+#include <string>
 #include <tuple>
 #include <type_traits>
 
 #include "integrators.h"
 #include "rk4_step.h"
+#include "run_stepper.h"
 #include "system.h"
 
 namespace stickslip::engine::detail {
@@ -155,26 +158,41 @@ void rk4_event(RunContext& ctx, const H& hyb, typename H::State& y) {
   });
 }
 
+/// A model with its own Stepper accepts the adaptive integrator only (SimConfig::IsValid says so
+/// before a run starts).
+[[noreturn, maybe_unused]] void refuse_fixed_step(const char* model) {
+  throw std::logic_error(std::string("fixed-step RK4 asked to run model ") + model +
+                         ", which brings its own integrator");
+}
+
 }  // namespace
 
 void run_rk4(RunContext& ctx) {
   visit_model(ctx.cfg.model, [&]<class M>(std::type_identity<M>) {
-    const M model = make_model<M>(ctx.cfg);
-    ctx.primary = primary_state_fn(model);
-    StateOf<M> y = initial_state(model, ctx.cfg.drive);
-    rk4_plain(ctx, scalar_form(model), y);
+    if constexpr (OwnStepper<M>) {
+      refuse_fixed_step(M::kInfo.name);
+    } else {
+      const M model = make_model<M>(ctx.cfg);
+      ctx.primary = primary_state_fn(model);
+      StateOf<M> y = initial_state(model, ctx.cfg.drive);
+      rk4_plain(ctx, scalar_form(model), y);
+    }
   });
 }
 
 void run_rk4_event(RunContext& ctx) {
   visit_model(ctx.cfg.model, [&]<class M>(std::type_identity<M>) {
-    const M model = make_model<M>(ctx.cfg);
-    ctx.primary = primary_state_fn(model);
-    StateOf<M> y = initial_state(model, ctx.cfg.drive);
-    if constexpr (M::kInfo.model_class == ModelClass::kSwitching)
-      rk4_event(ctx, typename M::Hybrid(model, ctx.cfg.drive), y);
-    else
-      rk4_plain(ctx, scalar_form(model), y);
+    if constexpr (OwnStepper<M>) {
+      refuse_fixed_step(M::kInfo.name);
+    } else {
+      const M model = make_model<M>(ctx.cfg);
+      ctx.primary = primary_state_fn(model);
+      StateOf<M> y = initial_state(model, ctx.cfg.drive);
+      if constexpr (M::kInfo.model_class == ModelClass::kSwitching)
+        rk4_event(ctx, typename M::Hybrid(model, ctx.cfg.drive), y);
+      else
+        rk4_plain(ctx, scalar_form(model), y);
+    }
   });
 }
 
