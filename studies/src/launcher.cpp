@@ -11,6 +11,7 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <cstdlib>
 #include <cstring>
 #include <deque>
 #include <optional>
@@ -319,6 +320,17 @@ std::shared_ptr<Executor> launcher_executor(LauncherOptions options) {
 fs::path sibling_program(const std::string& name) {
   std::error_code ec;
   const fs::path self = fs::read_symlink("/proc/self/exe", ec);
+  if (!ec && fs::is_regular_file(self.parent_path() / name, ec))
+    return self.parent_path() / name;
+  if (const char* path = std::getenv("PATH")) {
+    std::string dirs = path;
+    for (std::size_t a = 0; a <= dirs.size();) {
+      const std::size_t b = std::min(dirs.find(':', a), dirs.size());
+      const fs::path candidate = fs::path(dirs.substr(a, b - a)) / name;
+      if (b > a && ::access(candidate.c_str(), X_OK) == 0) return candidate;
+      a = b + 1;
+    }
+  }
   return ec ? fs::path(name) : self.parent_path() / name;
 }
 

@@ -57,7 +57,8 @@ struct LauncherOptions {
 std::shared_ptr<Executor> launcher_executor(LauncherOptions options);
 
 /// The executable `name` in the directory of this process's own executable (/proc/self/exe),
-/// e.g. the `stickslip` beside `stickslipd`.
+/// e.g. the `stickslip` beside `stickslipd`; else the first on PATH; else that sibling path
+/// (which LauncherOptions::IsValid then reports as missing).
 std::filesystem::path sibling_program(const std::string& name);
 
 /// The job's side (`stickslip study compute`): reads the task from in_fd, computes it with
