@@ -1,5 +1,7 @@
 // Rank 0's backend: the dedicated master that hands chunks of jobs to the worker ranks
 // (session.h, protocol.h).
+#include <unistd.h>
+
 #include <chrono>
 #include <optional>
 #include <sstream>
@@ -182,6 +184,16 @@ void MasterExecutor::compute(const studies::ComputeRequest& req,
     broken_->store(true);  // the workers' state is unknown: the session must abort
     throw;
   }
+}
+
+std::string MasterExecutor::running_note() const {
+  char host[256] = "?";
+  ::gethostname(host, sizeof host - 1);
+  return "computing in an MPI job of " + std::to_string(workers_ + 1) + " ranks (rank 0: pid " +
+         std::to_string(::getpid()) + " on host " + host + ", since " + store::utc_now_iso8601() +
+         "). If that process has ended and the study is still running, the job was lost: a "
+         "rank died and the launcher ended the whole job. The runs stored are kept; run the "
+         "study again to compute the missing ones";
 }
 
 std::string MasterExecutor::describe() const {

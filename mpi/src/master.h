@@ -20,6 +20,7 @@ class MasterExecutor final : public studies::Executor {
   void compute(const studies::ComputeRequest& req, const studies::RecordSink& sink,
                const studies::StopFn& stop) override;
   std::string describe() const override;
+  std::string running_note() const override;
 
  private:
   std::mutex mu_;

@@ -224,7 +224,10 @@ class StudyRun {
     progress_.done = counts.done;
     progress_.failed = counts.failed;
     sum_.skipped = counts.done;
-    store.set_study_state(id_, store::StudyState::kRunning);
+    const std::string note =
+        opt_.execution.executor ? opt_.execution.executor->running_note() : std::string();
+    store.set_study_state(id_, store::StudyState::kRunning,
+                          note.empty() ? std::nullopt : std::optional<std::string>(note));
   }
 
   bool stop_requested() const {

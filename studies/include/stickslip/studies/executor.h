@@ -67,6 +67,11 @@ class Executor {
                        const StopFn& stop) = 0;
   /// For logs: "OpenMP", "MPI (7 worker ranks)", "launcher 'mpirun -np 8'".
   virtual std::string describe() const = 0;
+  /// What the study's error field says while this backend computes it, when losing the
+  /// backend would also end the writing process, so that nobody could record why: the MPI
+  /// master (a rank that dies makes the launcher end the whole job, rank 0 included). Empty:
+  /// nothing (the writer records any failure itself).
+  virtual std::string running_note() const { return {}; }
 };
 
 /// OpenMP threads in this process: jobs (compute.h) with schedule(dynamic).
