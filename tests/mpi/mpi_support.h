@@ -6,6 +6,7 @@
 #include <sqlite3.h>
 
 #include <cstdint>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <stdexcept>
@@ -26,6 +27,16 @@ inline const std::string kClient = std::string(STICKSLIP_BINARY_DIR) + "/client/
 inline const std::string kServer = std::string(STICKSLIP_BINARY_DIR) + "/server/stickslipd";
 inline const std::string kMpirun = STICKSLIP_MPIRUN;
 inline const std::string kFaultLib = STICKSLIP_FAULT_MPI_LIB;
+
+/// What Open MPI needs on this machine, for the processes these tests start only (never in a
+/// user's environment): CI runs as root, which mpirun refuses unless told twice, and a
+/// container may forbid the cross-memory attach of the shared-memory transport.
+inline const bool kOpenMpiTestEnvironment = [] {
+  ::setenv("OMPI_ALLOW_RUN_AS_ROOT", "1", 1);
+  ::setenv("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1", 1);
+  ::setenv("OMPI_MCA_btl_vader_single_copy_mechanism", "none", 1);
+  return true;
+}();
 
 /// mpirun for np ranks on this 2-core machine (oversubscribed; unbound, so that a rank's
 /// OpenMP threads may use both cores), with a fault (fault_rank_preload.cpp) when not empty.
