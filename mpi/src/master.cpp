@@ -63,6 +63,7 @@ class Round {
  private:
   struct Worker {
     int threads = 0;  // 0 until it said ready
+    bool ended = false;
     std::optional<Chunk> chunk;
     Clock::time_point sent;
     double deadline_s = 0;
@@ -78,6 +79,7 @@ class Round {
     t.chunk_deadline_s = req_.chunk_deadline_s;
     const studies::wire::Bytes task = studies::wire::encode_task(t);
     for (int w = 1; w <= workers_; ++w) sends_.bytes(task, w, kTagBegin);
+    begun_ = Clock::now();
   }
 
   void on_message(const MPI_Status& st) {
@@ -130,6 +132,7 @@ class Round {
     if (!stop_()) c = scheduler_->next(s.threads);
     if (!c) {
       sends_.int64({}, w, kTagEnd);
+      s.ended = true;
       ++ended_;
       return;
     }
@@ -147,8 +150,14 @@ class Round {
 
   void check_deadlines() const {
     const auto now = Clock::now();
+    const double floor = scheduler_->deadline(Chunk{}, 1);  // nothing returned: the floor
     for (int w = 1; w <= workers_; ++w) {
       const Worker& s = state_[w];
+      if (s.threads == 0 && !s.ended &&
+          std::chrono::duration<double>(now - begun_).count() > floor)
+        throw ExecutorError("rank " + std::to_string(w) + " did not answer the start of the "
+                            "study within " + seconds_text(floor) +
+                            " s: the rank hung or was lost");
       if (!s.chunk || std::chrono::duration<double>(now - s.sent).count() <= s.deadline_s)
         continue;
       const studies::Job& first = jobs_[s.chunk->first_job];
@@ -168,6 +177,7 @@ class Round {
   std::vector<studies::Job> jobs_;
   std::optional<studies::ChunkScheduler> scheduler_;
   Sends sends_;
+  Clock::time_point begun_;
   int ended_ = 0;
 };
 
