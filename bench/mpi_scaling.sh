@@ -42,8 +42,8 @@ run() {  # name, command...: prints "name command_s study_s"
   run omp2 "$bin" study run --threads 2
 } | tee "$work/times"
 echo "load after: $(cut -d' ' -f1-3 /proc/loadavg)"
-python3 - "$work/times" <<'PY'
-import sys
+python3 - "$work/times" "$work/omp1.db" <<'PY'
+import sqlite3, sys
 t = {}
 for line in open(sys.argv[1]):
     name, cmd, study = line.split()
@@ -57,4 +57,8 @@ for i, label in ((0, "command"), (1, "study")):
     cost = t['mpi1'][i] / t['omp1'][i]
     print(f"{label:8}: E(1->2 ranks) = {100*e_mpi:.1f} %   E(1->2 threads) = {100*e_omp:.1f} %"
           f"   T(mpi1)/T(omp1) = {cost:.3f}")
+# The runs' own times (one thread each), for the projection in docs/scale.md.
+w = sorted(r[0] for r in sqlite3.connect(sys.argv[2]).execute("SELECT wall_time_s FROM runs"))
+print(f"runs: {len(w)}; time a run [s]: mean {sum(w)/len(w):.3f}, median {w[len(w)//2]:.3f}, "
+      f"max {w[-1]:.3f}, sum {sum(w):.1f}")
 PY
