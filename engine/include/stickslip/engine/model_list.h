@@ -7,13 +7,12 @@
 #include "stickslip/engine/models/karnopp.h"
 #include "stickslip/engine/models/lugre.h"
 #include "stickslip/engine/models/reset_integrator.h"
-#include "stickslip/engine/models/tanh_coulomb.h"
 
 namespace stickslip::engine {
 
 template <class... Models>
 struct ModelList {};
 
-using FrictionModels = ModelList<Dahl, Karnopp, ResetIntegrator, LuGre, TanhCoulomb>;
+using FrictionModels = ModelList<Dahl, Karnopp, ResetIntegrator, LuGre>;
 
 }  // namespace stickslip::engine
