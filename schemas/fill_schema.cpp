@@ -65,19 +65,10 @@ std::string and_list(const std::vector<std::string>& items) {
   return out;
 }
 
-std::vector<std::string> titles_using(std::string_view param) {
+// The titles of the models with the parameter or option name.
+std::vector<std::string> titles_using(std::string_view name) {
   std::vector<std::string> out;
-  for (const ModelTraits& t : all_model_traits())
-    for (const ParamDef& p : t.params)
-      if (param == p.name) out.push_back(t.info->title);
-  return out;
-}
-
-std::vector<std::string> titles_with_option(std::string_view option) {
-  std::vector<std::string> out;
-  for (const ModelTraits& t : all_model_traits())
-    for (const OptionDef& o : t.options)
-      if (option == o.name) out.push_back(t.info->title);
+  for (const ModelKind m : models_using(name)) out.push_back(model_traits(m).info->title);
   return out;
 }
 
@@ -137,7 +128,7 @@ std::vector<std::string> friction_members() {
       list += (list.empty() ? "" : ", ") + quoted(c);
     }
     const std::string text = capitalised(o.description) + ": one of " + and_list(choices) + " (" +
-                             and_list(titles_with_option(o.name)) + ").";
+                             and_list(titles_using(o.name)) + ").";
     out.push_back(quoted(o.name) + ": { \"description\": " + quoted(text) + ", \"enum\": [" +
                   list + "], \"default\": " + quoted(o.choices[static_cast<std::size_t>(o.def)]) +
                   " }");

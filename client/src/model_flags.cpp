@@ -24,17 +24,11 @@ std::string flag_names_of(std::string_view name) {
   return names;
 }
 
-std::string titles_with(std::string_view name, bool option) {
+// "Dahl, Reset Integrator, LuGre": the models with the parameter or option name.
+std::string titles_with(std::string_view name) {
   std::string out;
-  for (const engine::ModelTraits& t : engine::all_model_traits()) {
-    bool has = false;
-    if (option) {
-      for (const engine::OptionDef& o : t.options) has = has || name == o.name;
-    } else {
-      for (const engine::ParamDef& p : t.params) has = has || name == p.name;
-    }
-    if (has) out += (out.empty() ? "" : ", ") + std::string(t.info->title);
-  }
+  for (const engine::ModelKind m : engine::models_using(name))
+    out += (out.empty() ? "" : ", ") + std::string(engine::model_traits(m).info->title);
   return out;
 }
 
@@ -56,7 +50,7 @@ std::vector<ModelFlag> model_flags() {
     if (p.alias != nullptr) f.names += "," + flag_names_of(p.alias);
     f.target = p.name;
     f.help = std::string(p.description) + " [" + engine::unit_of(p.dim) + "] (default " +
-             number(p.def) + "; " + titles_with(p.name, false) + ")";
+             number(p.def) + "; " + titles_with(p.name) + ")";
     out.push_back(std::move(f));
   }
   for (const engine::OptionDef& o : engine::kFrictionOptions) {
@@ -65,7 +59,7 @@ std::vector<ModelFlag> model_flags() {
     f.target = o.name;
     f.choices.assign(o.choices.begin(), o.choices.end());
     f.help = std::string(o.description) + " (default " +
-             o.choices[static_cast<std::size_t>(o.def)] + "; " + titles_with(o.name, true) + ")";
+             o.choices[static_cast<std::size_t>(o.def)] + "; " + titles_with(o.name) + ")";
     out.push_back(std::move(f));
   }
   return out;
