@@ -14,7 +14,7 @@
 #include <sstream>
 
 #include "stickslip/studies/map.h"
-#include "stickslip/reports/report_schema_data.h"  // generated at configure time
+#include "stickslip/reports/report_schema_data.h"  // generated at build time
 
 namespace stickslip::reports {
 namespace {

@@ -4,6 +4,7 @@
 #include <CLI/CLI.hpp>
 #include <memory>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "stickslip/engine/params.h"
@@ -23,6 +24,25 @@ void add_effect_options(CLI::App& cmd, std::string& effect, std::vector<std::str
 /// InvalidParameter naming the field and the value (also for a malformed NAME=VALUE).
 void apply_effect_options(const std::string& effect, const std::vector<std::string>& params,
                           engine::SimConfig& cfg);
+
+/// A command-line flag of a friction parameter (or its alias) or a model option, derived from
+/// the model registry. The flag is the name without underscores, plus the name itself when that
+/// differs: k_t gives --kt and --k_t, F_C gives --FC and --F_C, DV gives --DV; an alias adds its
+/// own (F_slip: --Fslip, --F_slip) to the same option.
+struct ModelFlag {
+  std::string names;                 ///< CLI11 option names, e.g. "--kt,--k_t"
+  std::string target;                ///< the parameter or option ("k_t")
+  std::string help;                  ///< description [unit] (default; the models that use it)
+  std::vector<std::string> choices;  ///< an option's choices; empty for a parameter
+};
+/// One flag per parameter of kFrictionParameters and per option of kFrictionOptions, in order.
+std::vector<ModelFlag> model_flags();
+/// The flag names of a parameter or option name by the rule above ("--kt,--k_t").
+std::string model_flag_names(std::string_view name);
+/// The registered model ids in list order.
+std::vector<std::string> model_ids();
+/// --model MODEL on cmd, checked against the registered ids (the help lists them).
+CLI::Option* add_model_option(CLI::App& cmd, std::string& model);
 
 /// Subcommand registration (one function per command family).
 void add_simulate_command(CLI::App& app, int& exit_code);
