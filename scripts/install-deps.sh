@@ -5,6 +5,7 @@ set -euo pipefail
 
 PACKAGES=(
   build-essential cmake g++ pkg-config git
+  ccache                   # compiler cache: rebuilds in a fresh clone reuse earlier objects
   libeigen3-dev            # linear algebra (calibration Jacobians, covariance)
   libboost-dev             # Asio, Beast, Math, Random (header-only parts)
   nlohmann-json3-dev       # JSON
