@@ -229,9 +229,15 @@ TYPED_TEST(EveryModel, ConvergenceOrderOfEachIntegrator) {
     EXPECT_LT(order, 5.0) << e1 << " " << e2;
   }
   if (this->accepts(IntegratorKind::kAdaptive)) {
+    // Smooth models: the step is left to the error control (dt_max = the run's length): with
+    // the default 1e-4 s cap a model whose steps are limited by dt_max at rtol 1e-5
+    // (rate-and-state: 200 steps, error 5.7e-7 N, far inside the tolerance) shows no gain from
+    // a tighter rtol. (Switching models keep the cap: Karnopp with dt_max = 1.05 s ends 5.9 N
+    // off at rtol 1e-8, not investigated.)
     auto err = [&](double rtol) {
       SimConfig a = c;
       a.integrator.rtol = a.integrator.atol = rtol;
+      if (!this->switching()) a.integrator.dt_max = c.total_duration();
       return x_error(a, IntegratorKind::kAdaptive, 1e-6, x_ref);
     };
     const double loose = err(1e-5), tight = err(1e-8);

@@ -7,6 +7,7 @@
 #include "stickslip/engine/models/elasto_plastic.h"
 #include "stickslip/engine/models/karnopp.h"
 #include "stickslip/engine/models/lugre.h"
+#include "stickslip/engine/models/rate_state.h"
 #include "stickslip/engine/models/reset_integrator.h"
 
 namespace stickslip::engine {
@@ -14,6 +15,6 @@ namespace stickslip::engine {
 template <class... Models>
 struct ModelList {};
 
-using FrictionModels = ModelList<Dahl, Karnopp, ResetIntegrator, LuGre, ElastoPlastic>;
+using FrictionModels = ModelList<Dahl, Karnopp, ResetIntegrator, LuGre, ElastoPlastic, RateState>;
 
 }  // namespace stickslip::engine
