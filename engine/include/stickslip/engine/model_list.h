@@ -5,6 +5,7 @@
 // The order is the order in which the CLI, the schemas and the diagnosis list the models.
 #include "stickslip/engine/models/dahl.h"
 #include "stickslip/engine/models/elasto_plastic.h"
+#include "stickslip/engine/models/gms.h"
 #include "stickslip/engine/models/karnopp.h"
 #include "stickslip/engine/models/lugre.h"
 #include "stickslip/engine/models/rate_state.h"
@@ -15,6 +16,6 @@ namespace stickslip::engine {
 template <class... Models>
 struct ModelList {};
 
-using FrictionModels = ModelList<Dahl, Karnopp, ResetIntegrator, LuGre, ElastoPlastic, RateState>;
+using FrictionModels = ModelList<Dahl, Karnopp, ResetIntegrator, LuGre, ElastoPlastic, RateState, Gms>;
 
 }  // namespace stickslip::engine
