@@ -26,7 +26,8 @@ SimConfig config(int n = 4) {
 /// linear, at |v_r| = v), its element forces advanced through the model's hybrid form: the mode
 /// from the state (classify), the elements' rates (eval), and a sticking element that passes its
 /// limit within a step entering slip at the limit (event, on_enter), as the integrators do at a
-/// located switch. Returns the friction force at every step end and the displacement there.
+/// located switch. Returns the summed element force (the friction force less its damping terms,
+/// which vanish quasi-statically) at every step end and the displacement there.
 struct Path {
   std::vector<double> x, F;
 };
@@ -46,9 +47,8 @@ Path drive(const Gms& g, const std::vector<double>& xs, double v, int steps_per_
       GmsHybrid::Mode next;
       if (hyb.event(mode, p, internal_states(y), &next) < 0.0) hyb.on_enter(next, p, y, mode);
       x += dx;
-      const auto now = hyb.eval(hyb.classify(p, internal_states(y)), p, internal_states(y));
       out.x.push_back(x);
-      out.F.push_back(g.primary_state(internal_states(y)) + 0.0 * now.F_f);
+      out.F.push_back(g.primary_state(internal_states(y)));  // (no damping: quasi-static)
     }
   }
   return out;
