@@ -217,3 +217,28 @@ TEST(RateState, StickSlipBelowCriticalStiffnessSteadySlidingAbove) {
   const double kc_qs = 35.92365 * 0.01 / 1e-6;
   EXPECT_GT(amplitude("aging", 1e-3, 1.1 * kc_qs), 0.5);
 }
+
+// The normal load is a condition of the run: F_N = F_z + m g (Drive::normal_load()), F_z >= 0
+// (0: loaded by the weight alone). Steady friction scales with it; a negative F_z is refused
+// naming the field.
+TEST(RateState, NormalLoadIsACondition) {
+  for (double F_z : {0.0, 29.4, 100.0}) {
+    SimConfig c = config("aging");
+    set_parameter(c, "F_z", F_z);
+    c.drive.k_d = 100 * critical_stiffness(c, c.drive.v_d);
+    c.stages = {Stage{0.25, 0.0, 1500.0}};
+    c.integrator.rtol = c.integrator.atol = 1e-8;
+    c.integrator.dt_max = 1e-3;
+    const SimResult r = simulate(c);
+    ASSERT_EQ(r.status, RunStatus::kOk) << r.reason;
+    EXPECT_NEAR(r.stages[0].mean_friction, (F_z + 0.665 * 9.81) * 0.231, 1e-5 * (F_z + 6.5))
+        << F_z;
+  }
+  SimConfig c = config("aging");
+  try {
+    set_parameter(c, "F_z", -1.0);
+    ADD_FAILURE() << "accepted F_z = -1";
+  } catch (const InvalidParameter& e) {
+    EXPECT_EQ(e.field(), "F_z");
+  }
+}

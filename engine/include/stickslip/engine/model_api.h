@@ -162,7 +162,8 @@ struct ModelInfo {
 // ------------------------------------------------------------------ run conditions
 
 /// Drive and body (the seed's values). The normal load F_N = F_z + m g is what models written per
-/// unit normal load use.
+/// unit normal load use (rate-and-state: F_f = F_N mu). F_z >= 0 is the external load on a
+/// horizontal slider; 0 for a slider loaded by its weight alone.
 struct Drive {
   double m = 0.665;      ///< body mass [kg]
   double k_d = 11700.0;  ///< drive stiffness [N/m]
