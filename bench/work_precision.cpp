@@ -39,6 +39,9 @@ using namespace stickslip::engine;
 
 constexpr double kTraceRate = 2000.0;
 
+// Switching models have a hybrid form: their reference is rk4_event (located switches).
+bool switching(ModelKind m) { return model_traits(m).info->model_class == ModelClass::kSwitching; }
+
 struct Case {
   ModelKind model;
   double v_a;
@@ -131,8 +134,7 @@ int main(int argc, char** argv) {
   const double ref_dt = quick ? 5e-7 : 1e-7;
 
   std::vector<Case> cases;
-  for (ModelKind m : {model_kind<Dahl>, model_kind<Karnopp>, model_kind<ResetIntegrator>,
-                      model_kind<LuGre>})
+  for (ModelKind m : all_models())
     for (double v_a : {0.0, 4e-3}) {
       if (!only.empty()) {
         const std::string name = to_string(m);
@@ -144,8 +146,8 @@ int main(int argc, char** argv) {
       cases.push_back({m, v_a});
     }
   if (cases.empty()) {
-    std::fprintf(stderr, "--only %s: no such model/v_a (models: dahl, karnopp, "
-                 "reset_integrator, lugre; v_a: 0 or 4)\n", only.c_str());
+    std::fprintf(stderr, "--only %s: no such model/v_a (models: %s; v_a: 0 or 4)\n", only.c_str(),
+                 model_names().c_str());
     return 2;
   }
 
@@ -157,8 +159,7 @@ int main(int argc, char** argv) {
 #pragma omp parallel for schedule(dynamic, 1)
   for (int i = 0; i < static_cast<int>(cases.size()); ++i) {
     SimConfig cfg = make_cfg(cases[i], stage_dur);
-    const bool event = cases[i].model == model_kind<Karnopp> ||
-                       cases[i].model == model_kind<ResetIntegrator>;
+    const bool event = switching(cases[i].model);
     cfg.integrator.kind = event ? IntegratorKind::kRk4Event : IntegratorKind::kRk4;
     cfg.integrator.dt = ref_dt;
     const std::string path =
@@ -212,7 +213,7 @@ int main(int argc, char** argv) {
     {
       char s[32];
       std::snprintf(s, sizeof s, "dt=%g", ref_dt);
-      const bool event = c.model == model_kind<Karnopp> || c.model == model_kind<ResetIntegrator>;
+      const bool event = switching(c.model);
       row(c, event ? "ref_rk4ev" : "ref_rk4", s, ref, ref_wall[i], std::nan(""), std::nan(""));
     }
     for (double dt : {4e-6, 2e-6, 1e-6}) {

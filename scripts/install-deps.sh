@@ -15,6 +15,7 @@ PACKAGES=(
   libcli11-dev             # command line
   libspdlog-dev            # logging
   libnlopt-cxx-dev         # derivative-free optimisation
+  openmpi-bin libopenmpi-dev # studies across machines (mpirun stickslip ..., --launcher; docs/scale.md)
   gnuplot-nox              # report plots
   python3                  # report tests: html.parser/xml.dom check of the page (stdlib only)
   curl                     # end-to-end tests drive the server with curl

@@ -26,6 +26,7 @@
 #include "stickslip/server/http_server.h"
 #include "stickslip/server/worker.h"
 #include "stickslip/store/writer_lock.h"
+#include "stickslip/studies/launcher.h"
 #include "stickslip/studies/runner.h"
 
 namespace {
@@ -121,6 +122,25 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0, 10000));
   app.add_option("--log-level", log_level, "trace, debug, info, warn, error")
       ->capture_default_str();
+  studies::LauncherOptions launch;
+  work.execution.retries = 2;
+  app.add_option("--launcher", launch.command,
+                 "run each study as one MPI job started with this command prefix, e.g. "
+                 "\"mpirun -np 8 --hostfile hosts\" or \"srun -n 64\" (docs/scale.md); this "
+                 "server stays the store's one writer. Default: OpenMP in this process");
+  launch.program = studies::sibling_program("stickslip");
+  app.add_option("--launcher-program", launch.program,
+                 "the stickslip executable the MPI job runs (the same path on every node)")
+      ->capture_default_str();
+  app.add_option("--launcher-retries", work.execution.retries,
+                 "with --launcher: start a study's job again this many times after it lost a "
+                 "rank (each time for the missing runs) before the study fails")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 100));
+  app.add_option("--chunk-deadline", work.execution.chunk_deadline_s,
+                 "with --launcher: a chunk of runs not returned within max(this, 10 x its "
+                 "expected time) means its rank hung or was lost [s] (0: 120 s)")
+      ->check(CLI::Range(0.0, 1e7));
   CLI11_PARSE(app, argc, argv);
 
   spdlog::set_level(spdlog::level::from_str(log_level));
@@ -153,6 +173,12 @@ int main(int argc, char** argv) {
     if (!errors.empty()) {
       std::cerr << "stickslipd: " << common::join(errors, "; ") << "\n";
       return 2;
+    }
+    if (!launch.command.empty()) {
+      launch.on_output = [](const std::string& line) { spdlog::info("launcher: {}", line); };
+      work.execution.executor = studies::launcher_executor(launch);  // invalid: names the field
+    } else {
+      work.execution.retries = 0;
     }
     auto health = std::make_shared<server::Health>();
     server::Worker worker(api.db, work, &studies::run_study, health);

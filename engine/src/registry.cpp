@@ -41,6 +41,17 @@ std::string model_names(std::string_view separator) {
   return out;
 }
 
+std::vector<ModelKind> models_using(std::string_view name) {
+  std::vector<ModelKind> out;
+  for (const ModelTraits& t : kTraits) {
+    bool has = false;
+    for (const ParamDef& p : t.params) has = has || name == p.name;
+    for (const OptionDef& o : t.options) has = has || name == o.name;
+    if (has) out.push_back(t.kind);
+  }
+  return out;
+}
+
 ModelKind model_from_string(std::string_view name) {
   for (const ModelTraits& t : kTraits)
     if (name == t.info->name) return t.kind;

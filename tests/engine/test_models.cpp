@@ -243,7 +243,9 @@ TYPED_TEST(EveryModel, ConvergenceOrderOfEachIntegrator) {
     const double loose = err(1e-5), tight = err(1e-8);
     EXPECT_LE(tight, loose + 1e-9);
     EXPECT_LT(tight, 1e-6);
-    if (!this->switching()) {
+    // (Unless the loose error is already near the reference's: a model without internal states
+    // can be that accurate at any tolerance.)
+    if (!this->switching() && loose > 1e-9) {
       EXPECT_LT(tight * 30, loose) << "the error must shrink with rtol";
     }
   }

@@ -93,6 +93,8 @@ const char* to_string(ModelKind m) noexcept;
 ModelKind model_from_string(std::string_view name);
 /// The registered names joined: "dahl, karnopp, reset_integrator, lugre".
 std::string model_names(std::string_view separator = ", ");
+/// The models whose traits table has the parameter or option name (not an alias), in list order.
+std::vector<ModelKind> models_using(std::string_view name);
 
 // ------------------------------------------------------------------ implementation
 
