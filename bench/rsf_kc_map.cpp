@@ -42,7 +42,7 @@ void run(Cell& cell) {
   set_option(c, "law", cell.law);
   set_parameter(c, "V_init", cell.V);
   c.drive.v_d = cell.V;
-  const double FN = c.drive.normal_load(), a = c.friction["a"], b = c.friction["b"];
+  const double FN = c.drive.normal_load(), a = c.friction["a_rs"], b = c.friction["b_rs"];
   const double Dc = c.friction["D_c"], m = c.drive.m, V = cell.V;
   const double kc = FN * (b - a) / Dc * (1.0 + m * V * V / (FN * a * Dc));
   c.drive.k_d = cell.ratio * kc;
@@ -101,7 +101,7 @@ int main(int argc, char** argv) {
     // the quasi-static k_c on this axis: 1 / (1 + m V^2 / (F_N a D_c)) (data set 2)
     dat << "\n\n# V[m/s] k_c,quasi-static / k_c(V)\n";
     const SimConfig c0 = SimConfig::seed(model_kind<RateState>, 0.0);
-    const double FN = c0.drive.normal_load(), a = c0.friction["a"], Dc = c0.friction["D_c"];
+    const double FN = c0.drive.normal_load(), a = c0.friction["a_rs"], Dc = c0.friction["D_c"];
     for (double V = 1e-5; V <= 5.01e-3; V *= 1.1) {
       char line[80];
       std::snprintf(line, sizeof line, "%.4g %g 0\n", 1.0 / (1.0 + c0.drive.m * V * V / (FN * a * Dc)), V);

@@ -32,7 +32,7 @@ SimConfig config(const char* law) {
 /// + k V/D_c has roots with Re s > 0 (Routh-Hurwitz) below
 ///   k_c = F_N (b - a)/D_c (1 + m V^2 / (F_N a D_c)).
 double critical_stiffness(const SimConfig& c, double V) {
-  const double FN = c.drive.normal_load(), a = c.friction["a"], b = c.friction["b"];
+  const double FN = c.drive.normal_load(), a = c.friction["a_rs"], b = c.friction["b_rs"];
   const double Dc = c.friction["D_c"];
   return FN * (b - a) / Dc * (1.0 + c.drive.m * V * V / (FN * a * Dc));
 }

@@ -32,6 +32,9 @@ struct LuGre {
   };
   static constexpr Constraint kConstraints[] = {{"F_S", "F_C"}};
   static constexpr int kStates = 1;
+  /// One of the seed's four models: every study spec's canonical form carries its parameters
+  /// (registry.h, ModelTraits::in_every_canonical_spec).
+  static constexpr bool kInEveryCanonicalSpec = true;
 
   double k_t, h_t, h_v, F_C, F_S, v_s;
   double inv_vs2;  // 1 / v_s^2 [s^2/m^2]

@@ -40,6 +40,9 @@
 // (RosenbrockStepper, RODAS4, L-stable) with this header's exact Jacobian; it accepts the
 // adaptive integrator only, and has no batched kernel.
 //
+// Parameter names: mu0, a_rs, b_rs, D_c, V0 (a and b name the analytic test functions' inputs in
+// a study spec's base, so the coefficients carry the suffix).
+//
 // Defaults (stick-slip at the seed's conditions k_d = 11700 N/m, F_N = 35.92 N, v_d = 1 mm/s):
 // a = 0.01, b = 0.02, D_c = 1 um are the orders of magnitude Heslot et al. (1994) and
 // Baumberger & Caroli (2006, Adv. Phys. 55:279) report for paper on paper (a ~ 1e-2, b - a ~
@@ -75,9 +78,9 @@ struct RateState {
         [](const FitLevels& l) {
           return l.normal_load > 0 ? std::clamp(l.slip / l.normal_load, 0.011, 2.9) : 0.231;
         }}},
-      {"a", kDimensionless, 0.01, kPositive, "rate-and-state direct-effect coefficient",
+      {"a_rs", kDimensionless, 0.01, kPositive, "rate-and-state direct-effect coefficient a",
        {1e-4, 0.1, FitScale::kLog}},
-      {"b", kDimensionless, 0.02, kNonNegative, "rate-and-state evolution-effect coefficient",
+      {"b_rs", kDimensionless, 0.02, kNonNegative, "rate-and-state evolution-effect coefficient b",
        {1e-4, 0.2, FitScale::kLog}},
       {"D_c", kLength, 1e-6, kPositive, "rate-and-state characteristic slip distance",
        {1e-8, 1e-3, FitScale::kLog}},
@@ -98,7 +101,7 @@ struct RateState {
   double half_inv_V0;  // 1 / (2 V0) [s/m]
 
   explicit RateState(const ModelInputs& in)
-      : mu0(in["mu0"]), a(in["a"]), b(in["b"]), D_c(in["D_c"]), V0(in["V0"]),
+      : mu0(in["mu0"]), a(in["a_rs"]), b(in["b_rs"]), D_c(in["D_c"]), V0(in["V0"]),
         V_init(in["V_init"]), t_hold(in["t_hold"]), F_N(in.drive().normal_load()),
         slip_law(in.option("law") == 1 ? 1.0 : 0.0), inv_a(1.0 / a),
         inv_b(b > 0 ? 1.0 / b : 0.0), half_inv_V0(0.5 / V0) {}
