@@ -33,7 +33,7 @@ constexpr Flag kFlags[] = {
     {"--m", "m", "body mass [kg] (0.665)"},
     {"--kd", "k_d", "drive stiffness [N/m] (11700)"},
     {"--vd", "v_d", "drive velocity [m/s] (1e-3)"},
-    {"--Fz", "F_z", "external load [N] (29.4)"},
+    {"--Fz", "F_z", "external normal load [N], F_N = F_z + m g (29.4)"},
     {"--va", "v_a", "base velocity amplitude after t_on [m/s] (0)"},
     {"--f", "f", "base vibration frequency [Hz] (1500)"},
     {"--t-on", "t_on", "time the base starts vibrating [s] (10)"},

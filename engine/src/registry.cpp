@@ -6,7 +6,8 @@ namespace {
 template <class... Ms>
 std::array<ModelTraits, sizeof...(Ms)> make_traits(ModelList<Ms...>) {
   return {ModelTraits{model_kind<Ms>, &Ms::kInfo, Ms::kParams, registry_detail::options_of<Ms>(),
-                      registry_detail::constraints_of<Ms>(), Ms::kStates}...};
+                      registry_detail::constraints_of<Ms>(), Ms::kStates,
+                      registry_detail::in_every_canonical_spec<Ms>()}...};
 }
 const std::array<ModelTraits, kModelCount> kTraits = make_traits(FrictionModels{});
 

@@ -1,6 +1,10 @@
 // SpecBuilder: the canonical form of a study (every default filled in, keys sorted).
 #include "spec_builder.h"
 
+#include <algorithm>
+#include <string_view>
+#include <vector>
+
 
 namespace stickslip::studies {
 
@@ -76,6 +80,45 @@ json SpecBuilder::design_json() const {
   return out;
 }
 
+namespace {
+
+/// The models a study uses: its base model and every model its design names.
+std::vector<engine::ModelKind> used_models(const engine::SimConfig& base, const Design& d) {
+  std::vector<engine::ModelKind> out{base.model};
+  auto add = [&](const std::string& name) {
+    const engine::ModelKind k = engine::model_from_string(name);
+    if (std::find(out.begin(), out.end(), k) == out.end()) out.push_back(k);
+  };
+  for (const auto& a : d.axes)
+    if (a.is_model())
+      for (const auto& m : a.models) add(m);
+  for (const auto& p : d.points)
+    if (p.model) add(*p.model);
+  return out;
+}
+
+/// Whether the canonical form carries the friction parameter or option `name`: when a model
+/// the study uses has it, or a model whose parameters every canonical form carries
+/// (ModelTraits::in_every_canonical_spec, the seed's four). So registering a model changes the
+/// canonical form, and the hash a stored study is resumed by, of no study that does not use it.
+/// Names that are not friction parameters or options (m, k_d, F_z ...) are always carried.
+bool carried(std::string_view name, const std::vector<engine::ModelKind>& used) {
+  bool friction = false;
+  for (const engine::ModelTraits& t : engine::all_model_traits()) {
+    bool has = false;
+    for (const engine::ParamDef& p : t.params) has = has || name == p.name;
+    for (const engine::OptionDef& o : t.options) has = has || name == o.name;
+    if (!has) continue;
+    friction = true;
+    if (t.in_every_canonical_spec ||
+        std::find(used.begin(), used.end(), t.kind) != used.end())
+      return true;
+  }
+  return !friction;
+}
+
+}  // namespace
+
 json SpecBuilder::canonical() const {
   json out = {{"name", spec_.name_}};
   if (auto desc = string_at(doc_, "description")) out["description"] = *desc;
@@ -93,9 +136,11 @@ json SpecBuilder::canonical() const {
   }
   const engine::SimConfig& c = spec_.base_;
   json base = {{"model", to_string(c.model)}};
-  for (const auto& name : engine_base_fields()) base[name] = engine::get_parameter(c, name);
+  const std::vector<engine::ModelKind> used = used_models(c, spec_.design_);
+  for (const auto& name : engine_base_fields())
+    if (carried(name, used)) base[name] = engine::get_parameter(c, name);
   for (const engine::OptionDef& o : engine::kFrictionOptions)
-    base[o.name] = engine::get_option(c, o.name);
+    if (carried(o.name, used)) base[o.name] = engine::get_option(c, o.name);
   out["base"] = std::move(base);
   json stages = json::array();
   for (const auto& s : c.stages)
