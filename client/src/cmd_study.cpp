@@ -57,12 +57,12 @@ int open_for_run(const RunArgs& a, const studies::StudySpec& spec, store::StudyR
   }
 }
 
-int study_run(const RunArgs& a) {
-  // 1. The spec: every problem is reported, nothing is written.
+/// Reads and checks the spec file: every problem is reported on stderr, nothing is written.
+std::optional<studies::StudySpec> read_spec(const RunArgs& a) {
   std::ifstream in(a.spec_file, std::ios::binary);
   if (!in) {
     std::cerr << "stickslip study run: cannot read spec file '" << a.spec_file << "'\n";
-    return kBadInput;
+    return std::nullopt;
   }
   std::stringstream text;
   text << in.rdbuf();
@@ -75,9 +75,53 @@ int study_run(const RunArgs& a) {
     for (const auto& e : parsed.errors)
       std::cerr << "  " << (e.pointer.empty() ? "(document)" : e.pointer) << ": " << e.message
                 << "\n";
-    return kBadInput;
+    return std::nullopt;
   }
-  const studies::StudySpec& spec = *parsed.spec;
+  return std::move(*parsed.spec);
+}
+
+/// The run's summary on stdout (JSON with --json) and its exit code.
+int report_run(const RunArgs& a, const store::StudyRecord& study, const studies::RunSummary& sum) {
+  if (a.json_out) {
+    std::cout << json{{"study_id", study.id},
+                      {"outcome", studies::to_string(sum.outcome)},
+                      {"error", sum.error},
+                      {"total", sum.total},
+                      {"skipped", sum.skipped},
+                      {"computed", sum.computed},
+                      {"failed", sum.failed},
+                      {"batched", sum.batched},
+                      {"wall_s", sum.wall_s},
+                      {"store_s", sum.store_s},
+                      {"compute_s", sum.compute_s}}
+                     .dump(2)
+              << "\n";
+  } else {
+    std::printf("study %s: %s; %lld runs: %lld stored before, %lld computed now (%lld failed); "
+                "wall %.2f s, store %.3f s\n",
+                study.id.c_str(), studies::to_string(sum.outcome),
+                static_cast<long long>(sum.total), static_cast<long long>(sum.skipped),
+                static_cast<long long>(sum.computed), static_cast<long long>(sum.failed),
+                sum.wall_s, sum.store_s);
+  }
+  switch (sum.outcome) {
+    case studies::RunOutcome::kCompleted: return kOk;
+    case studies::RunOutcome::kStopped:
+      std::cerr << "stickslip study run: interrupted; run the same command again to resume\n";
+      return kFailure;
+    case studies::RunOutcome::kCancelled: return kStudyFailed;
+    case studies::RunOutcome::kFailed:
+      std::cerr << "stickslip study run: " << sum.error << "\n";
+      return kFailure;
+  }
+  return kFailure;
+}
+
+int study_run(const RunArgs& a) {
+  // 1. The spec: every problem is reported, nothing is written.
+  const std::optional<studies::StudySpec> parsed = read_spec(a);
+  if (!parsed) return kBadInput;
+  const studies::StudySpec& spec = *parsed;
   studies::Execution execution;
   try {
     execution = make_execution(a.execution, a.mpi);
@@ -116,40 +160,7 @@ int study_run(const RunArgs& a) {
   std::signal(SIGINT, SIG_DFL);
   std::signal(SIGTERM, SIG_DFL);
   bar.finish();
-
-  if (a.json_out) {
-    std::cout << json{{"study_id", study.id},
-                      {"outcome", studies::to_string(sum.outcome)},
-                      {"error", sum.error},
-                      {"total", sum.total},
-                      {"skipped", sum.skipped},
-                      {"computed", sum.computed},
-                      {"failed", sum.failed},
-                      {"batched", sum.batched},
-                      {"wall_s", sum.wall_s},
-                      {"store_s", sum.store_s},
-                      {"compute_s", sum.compute_s}}
-                     .dump(2)
-              << "\n";
-  } else {
-    std::printf("study %s: %s; %lld runs: %lld stored before, %lld computed now (%lld failed); "
-                "wall %.2f s, store %.3f s\n",
-                study.id.c_str(), studies::to_string(sum.outcome),
-                static_cast<long long>(sum.total), static_cast<long long>(sum.skipped),
-                static_cast<long long>(sum.computed), static_cast<long long>(sum.failed),
-                sum.wall_s, sum.store_s);
-  }
-  switch (sum.outcome) {
-    case studies::RunOutcome::kCompleted: return kOk;
-    case studies::RunOutcome::kStopped:
-      std::cerr << "stickslip study run: interrupted; run the same command again to resume\n";
-      return kFailure;
-    case studies::RunOutcome::kCancelled: return kStudyFailed;
-    case studies::RunOutcome::kFailed:
-      std::cerr << "stickslip study run: " << sum.error << "\n";
-      return kFailure;
-  }
-  return kFailure;
+  return report_run(a, study, sum);
 }
 
 int study_list(const std::string& db, bool as_json) {
