@@ -9,6 +9,7 @@
 #include <stdexcept>
 
 #include "stickslip/diagnosis/detail/diagnose_load.h"
+#include "stickslip/diagnosis/detail/diagnose_statfit.h"
 #include "stickslip/engine/metrics.h"
 #include "stickslip/engine/simulate.h"
 
@@ -88,6 +89,8 @@ Problem make_problem(const measured::MeasuredDataset& data, const DiagnoseOption
     r.name = mr.name;
     r.cond = mr.conditions;
     if (mr.t.size() < 2) throw std::invalid_argument("run " + mr.name + ": too few samples");
+    r.rec = analyse_record(mr, o.holdout_fraction);
+    p.stats = p.stats || !r.rec.phase_locked;
     std::vector<double> dt(mr.t.size() - 1);
     for (std::size_t i = 1; i < mr.t.size(); ++i) dt[i - 1] = mr.t[i] - mr.t[i - 1];
     std::nth_element(dt.begin(), dt.begin() + dt.size() / 2, dt.end());
@@ -140,17 +143,26 @@ Problem make_problem(const measured::MeasuredDataset& data, const DiagnoseOption
       r.stage.push_back(j);
       if (role == kFit) r.fit_end = std::max(r.fit_end, t);
     }
+    plan_stats(r);
     p.runs.push_back(std::move(r));
   }
   return p;
 }
 
 StartLevels data_driven_start(const Problem& p) {
+  // The engine's stage metrics of the measured first stage of every run (its settled part:
+  // MetricOptions::settle_fraction), with the cycle threshold moved from Table 1's scale to the
+  // record's (0.2 N at forces of ~10 N) and kept above the record's noise: the mean level, and
+  // the median drop.
+  const double F_ref = engine::FrictionParams{}["F_C"];
   double mean_sum = 0, amp_sum = 0;
   int n = 0;
   for (const auto& r : p.runs) {
     const double t1 = r.stage_start.size() > 1 ? r.stage_start[1] : r.cond.duration;
-    engine::StageAccumulator acc(0.0, t1, engine::MetricOptions{});
+    engine::MetricOptions mo;
+    mo.cycle_threshold = std::max(mo.cycle_threshold * std::fabs(r.rec.level) / F_ref,
+                                  kThresholdSigmas * r.rec.noise.sigma);
+    engine::StageAccumulator acc(0.0, t1, mo);
     for (std::size_t i = 0; i < r.t.size() && r.t[i] <= t1; ++i) acc.sample(r.t[i], r.y[i], r.y[i]);
     const engine::StageMetrics m = acc.finish();
     mean_sum += m.mean_force;
@@ -171,6 +183,7 @@ double span_end(const RunData& r, Span span, double short_end) {
     case Span::kShort: return std::min(short_end, r.fit_end) + 1e-3;
     case Span::kFit:
     case Span::kFeatures: return r.fit_end + 1e-3;
+    case Span::kStats:
     case Span::kFull: return r.cond.duration;
   }
   return r.cond.duration;
@@ -245,6 +258,7 @@ void append_windows(Features* a, const Features& b) {
 
 Evaluation evaluate(const Problem& p, const FitModel& m, const std::vector<double>& theta,
                     Span span, double short_end) {
+  if (span == Span::kStats) return evaluate_stats(p, m, theta);
   Evaluation e;
   if (p.stop && p.stop()) {
     e.reason = "cancelled";
@@ -490,7 +504,8 @@ void levenberg_marquardt(Ctx& c, unsigned n) {
     ++c.evals;
     const Evaluation e = evaluate(*c.p, *c.m, to_theta(*c.m, u), c.span, c.short_end);
     if (!e.ok) return std::numeric_limits<double>::infinity();
-    *r = c.span == Span::kFeatures ? e.feat : fit_residuals(*c.p, e, c.span, c.short_end);
+    *r = c.span == Span::kFeatures || c.span == Span::kStats ? e.feat
+                                                             : fit_residuals(*c.p, e, c.span, c.short_end);
     if (e.sse_fit < c.best) {
       c.best = e.sse_fit;
       c.best_u = u;
@@ -579,7 +594,7 @@ FitResult fit(const Problem& p, const FitModel& m, const std::vector<std::vector
     out.evals = c.evals;
     return out;
   }
-  if (span == Span::kFeatures) {
+  if (span == Span::kFeatures || span == Span::kStats) {
     levenberg_marquardt(c, n);
     out.theta = to_theta(m, c.best_u);
     out.sse = c.best;

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "stickslip/diagnosis/detail/diagnose_features.h"
+#include "stickslip/diagnosis/detail/diagnose_record.h"
 #include "stickslip/engine/params.h"
 #include "stickslip/diagnosis/diagnose.h"
 #include "stickslip/measured/measured.h"
@@ -34,6 +35,13 @@ struct RunData {
   /// slips). anchor_t = t_on [s].
   double anchor_tau = std::numeric_limits<double>::quiet_NaN();
   double anchor_t = 0;
+  /// The model-free reading of the run at its full rate (diagnose_record.h): noise, spikes,
+  /// initial state, and the statistics of every stage's fitted and held-out part.
+  RecordInfo rec;
+  /// Statistics scoring (Span::kStats, diagnose_statfit.h): the simulated burn-in before the
+  /// record's t = 0 [s], and per stage the simulated span whose statistics predict the stage's [s].
+  double settle = 0;
+  std::vector<double> stats_span;
 };
 
 struct Problem {
@@ -42,6 +50,9 @@ struct Problem {
   bool fit_offset = true;
   /// DiagnoseOptions::stop_requested: when it returns true, evaluate fails at once ("cancelled").
   std::function<bool()> stop;
+  /// The runs are scored on their statistics (Span::kStats) rather than sample by sample: some
+  /// run is not phase-locked (RecordInfo::phase_locked).
+  bool stats = false;
 };
 
 /// One scalar parameter in the unit box: u in [0, 1] maps to [lo, hi] linearly or in log.
@@ -73,8 +84,10 @@ struct RunSim {
 
 /// kShort: fit samples before short_end; kFit: all fit samples; kFull: every sample (held-out
 /// scored too); kFeatures: like kFit, but the score is the per-stage cycle features (mean,
-/// amplitude, period) of the fit windows, which do not depend on slip timing.
-enum class Span { kShort, kFit, kFull, kFeatures };
+/// amplitude, period) of the fit windows, which do not depend on slip timing; kStats: the
+/// statistics of the stick-slip of every stage (diagnose_statfit.h), fitted windows in sse_fit and
+/// feat, held-out windows in sse_held.
+enum class Span { kShort, kFit, kFull, kFeatures, kStats };
 
 struct Evaluation {
   bool ok = false;
@@ -82,7 +95,9 @@ struct Evaluation {
   double sse_fit = 0, sse_held = 0, offset = 0;
   std::size_t n_fit = 0, n_held = 0;
   std::vector<RunSim> sims;  ///< per run
-  std::vector<double> feat;  ///< kFeatures: the feature residuals (fixed length per problem)
+  std::vector<double> feat;  ///< kFeatures, kStats: the residuals (fixed length per problem)
+  /// kStats: the simulated statistics per run and stage.
+  std::vector<std::vector<SlipStats>> stats;
 };
 
 /// Simulates every run up to the span's end and scores the samples. Short: fit samples with

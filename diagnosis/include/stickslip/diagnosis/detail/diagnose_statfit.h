@@ -1,0 +1,52 @@
+#pragma once
+// Internal to the diagnosis: scoring a model on the statistics of the stick-slip (Span::kStats;
+// docs/diagnose.md "Statistics scoring"), for records that a deterministic model cannot follow
+// slip by slip (a mid-experiment start, irregular slips: RecordInfo::phase_locked is false).
+//
+// A run is simulated from rest with a burn-in `settle` before the record's t = 0: the time the
+// stuck body takes to load the spring to the measured preload (F0 / (k_d v_d)) plus three
+// measured periods between drops (ten natural periods without drops), so that the record is
+// compared with the model's settled motion, whatever state it started in. A one-stage run is
+// simulated for stats_span past the burn-in: the measured time between drops times
+// kSpanIntervals, at least kSpanPeriods natural periods and kSpanMin, at most the stage (a
+// deterministic model's statistics settle in a few dozen cycles; a 375 s record needs no 375 s
+// simulation); a run of several stages is simulated whole. The statistics of each simulated
+// stage (diagnose_stats.h, with the measured stage's StatsSpec) are compared with those of the
+// measured stage's fitted part (the objective, Evaluation::feat and sse_fit) and held-out part
+// (sse_held): a model's statistics predict any window of the stage.
+//
+// Steps: a still run needs no step shorter than the dynamics of the body on its spring, so the
+// largest step is min(kStillStepMax, natural period / 20) there (the engine's default 1e-4 s is
+// set for a 1500 Hz base); the error control still shortens the steps of a slip.
+
+#include <vector>
+
+#include "stickslip/diagnosis/detail/diagnose_fit.h"
+
+namespace stickslip::diagnosis::detail {
+
+inline constexpr double kSpanIntervals = 25.0;
+inline constexpr double kSpanPeriods = 50.0;
+inline constexpr double kSpanMin = 2.0;         ///< [s]
+inline constexpr double kStillStepMax = 1e-3;   ///< [s]
+
+/// Sets r.settle and r.stats_span from r.rec and r.cond (see above).
+void plan_stats(RunData& r);
+
+/// The simulation of run r at theta for its statistics: burn-in, span, steps and a trace at the
+/// record's sample interval.
+engine::SimConfig stats_config(const FitModel& m, const RunData& r, const std::vector<double>& theta,
+                               double rtol);
+
+/// The simulated statistics of every stage of r from a trace of stats_config.
+std::vector<SlipStats> simulated_stats(const RunData& r, const std::vector<engine::TraceSample>& trace);
+
+/// evaluate(p, m, theta, Span::kStats).
+Evaluation evaluate_stats(const Problem& p, const FitModel& m, const std::vector<double>& theta);
+
+/// The statistics score of a constant level per run (no stick-slip): the trivial predictor of the
+/// statistics; sse over the fitted (held-out) windows into *fit (*held), with counts.
+void constant_stats_score(const Problem& p, double* sse_fit, std::size_t* n_fit, double* sse_held,
+                          std::size_t* n_held);
+
+}  // namespace stickslip::diagnosis::detail
