@@ -10,6 +10,7 @@
 #include "stickslip/measured/measured.h"
 
 using namespace stickslip;
+using namespace stickslip::diagnosis;
 using namespace stickslip::diagnosis::detail;
 
 int main(int argc, char** argv) {

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <cstddef>
 #include <stdexcept>
 #include <string>
@@ -12,6 +13,7 @@
 
 #include "stickslip/diagnosis/detail/diagnose_load.h"
 #include "diagnose_sensor.h"
+#include "stickslip/diagnosis/detail/diagnose_progress.h"
 #include "stickslip/diagnosis/detail/diagnose_starts.h"
 
 namespace stickslip::diagnosis::detail {
@@ -91,14 +93,33 @@ double next_profile_size(const std::vector<ProfilePoint>& p) {
   return std::fabs(s - b) > 0.05 * std::max(b, n->size) ? s : 0.0;
 }
 
+/// The fixed starting grids of the extensions, at Table 1's scale (empty: starts from the
+/// record, extension_starts).
+std::vector<std::vector<double>> fixed_extension_starts(engine::ExtensionKind k) {
+  switch (k) {
+    case engine::ExtensionKind::kViscous: return {{0.0}, {20.0}, {60.0}, {150.0}};
+    case engine::ExtensionKind::kStribeckShape: return {{2.0}, {1.0}, {4.0}};
+    case engine::ExtensionKind::kDwellTime: return {{0.0, 0.1}, {0.3, 0.1}, {1.0, 0.1}, {0.3, 1.0}};
+    case engine::ExtensionKind::kNormalLoadModulation:
+      // (eta_v, eta_q), diagnose_load.h: the observed levels are linear in them, so the
+      // feature LM needs no phase scan; one start per sign of each component.
+      return {{0.0, 0.0}, {0.1, 0.0}, {-0.1, 0.0}, {0.0, 0.1}, {0.0, -0.1}};
+    case engine::ExtensionKind::kSensorDynamics: return {{2e-3, 0.7}, {1e-3, 0.3}, {5e-3, 1.0}, {5e-3, 0.3}};
+    case engine::ExtensionKind::kDriveDamping: return {{0.0}, {10.0}, {30.0}, {80.0}};
+    default: return {};
+  }
+}
+
+/// The starting sizes of an extension. The fixed grids are written at Table 1's scale and moved
+/// to the record's (scaled_extension_value); the waviness and drift starts come from the record.
 std::vector<std::vector<double>> extension_starts(engine::ExtensionKind k, const std::vector<ParamSpec>& specs,
                                                   const Evidence& ev, const SineScan& scan,
-                                                  double F_C0) {
-  std::vector<std::vector<double>> s;
+                                                  double F_C0, const RecordScales& scales) {
+  std::vector<std::vector<double>> s = fixed_extension_starts(k);
+  for (auto& start : s)
+    for (std::size_t j = 0; j < start.size() && j < specs.size(); ++j)
+      start[j] = scaled_extension_value(specs[j].name, start[j], scales);
   switch (k) {
-    case engine::ExtensionKind::kViscous: s = {{0.0}, {20.0}, {60.0}, {150.0}}; break;
-    case engine::ExtensionKind::kStribeckShape: s = {{2.0}, {1.0}, {4.0}}; break;
-    case engine::ExtensionKind::kDwellTime: s = {{0.0, 0.1}, {0.3, 0.1}, {1.0, 0.1}, {0.3, 1.0}}; break;
     case engine::ExtensionKind::kWaviness: {
       // The three strongest local maxima of the residual spectrum against x.
       std::vector<std::size_t> peaks;
@@ -120,30 +141,11 @@ std::vector<std::vector<double>> extension_starts(engine::ExtensionKind k, const
     case engine::ExtensionKind::kDrift:
       s = {{0.0}, {std::clamp(ev.trend_per_m / F_C0, -39.0, 39.0)}};
       break;
-    case engine::ExtensionKind::kNormalLoadModulation:
-      // (eta_v, eta_q), diagnose_load.h: the observed levels are linear in them, so the
-      // feature LM needs no phase scan; one start per sign of each component.
-      s = {{0.0, 0.0}, {0.1, 0.0}, {-0.1, 0.0}, {0.0, 0.1}, {0.0, -0.1}};
-      break;
-    case engine::ExtensionKind::kSensorDynamics:
-      s = {{2e-3, 0.7}, {1e-3, 0.3}, {5e-3, 1.0}, {5e-3, 0.3}};
-      break;
-    case engine::ExtensionKind::kDriveDamping: s = {{0.0}, {10.0}, {30.0}, {80.0}}; break;
-    case engine::ExtensionKind::kNone: break;
+    default: break;
   }
   return s;
 }
 
-/// Fit RMSE, held-out RMSE, n_eff and AIC of a candidate from its scoring evaluation c.full.
-void score_candidate(const Problem& P, CandFit& c) {
-  c.sse_fit = c.full.sse_fit;
-  c.res.offset = c.full.offset;
-  c.res.rmse_fit = rms(c.full.sse_fit, c.full.n_fit);
-  c.res.rmse_heldout = rms(c.full.sse_held, c.full.n_held);
-  const double rho = lag1(P, c.full);
-  c.n_eff = std::max(static_cast<double>(c.full.n_fit) * (1 - rho) / (1 + rho), 10.0);
-  c.res.aic = c.n_eff * std::log(c.full.sse_fit / c.full.n_fit) + 2.0 * c.theta.size();
-}
 
 /// The starting points of a candidate's phase A (all) and those with v_s held at its nominal
 /// value (held: phase A runs a second feature fit from them).
@@ -167,7 +169,7 @@ Starts candidate_starts(const CandidateInputs& in, engine::ExtensionKind kind,
   const bool slip_force = kind == engine::ExtensionKind::kViscous || kind == engine::ExtensionKind::kDriveDamping;
   const bool profile = slip_force ||
                        kind == engine::ExtensionKind::kStribeckShape || kind == engine::ExtensionKind::kDwellTime;
-  auto ext_starts = extension_starts(kind, ext, in.ev, in.scan, in.F_C0);
+  auto ext_starts = extension_starts(kind, ext, in.ev, in.scan, in.F_C0, in.scales);
   bool wave_profile = false;
   if (kind == engine::ExtensionKind::kWaviness) {
     // The residual spectrum is slip-timing noise when the base misses slips: starts from the
@@ -261,11 +263,30 @@ Starts candidate_starts(const CandidateInputs& in, engine::ExtensionKind kind,
     }
   }
   if (kind == engine::ExtensionKind::kSensorDynamics)  // held-v_s profile starts (diagnose_sensor.h)
-    sensor_profile_starts(P, base.model, base.theta, o, &s.all, &s.held, evals);
+    sensor_profile_starts(P, base.model, base.theta, o, in.scales, &s.all, &s.held, evals);
   return s;
 }
 
 }  // namespace
+
+/// Fit RMSE, held-out RMSE, n_eff and AIC of a candidate from its scoring evaluation c.full.
+void score_candidate(const Problem& P, CandFit& c) {
+  c.sse_fit = c.full.sse_fit;
+  c.res.offset = c.full.offset;
+  if (P.stats) {  // the statistics scores; the residuals are tolerance units, not samples
+    c.res.score_fit = rms(c.full.sse_fit, c.full.n_fit);
+    c.res.score_heldout = rms(c.full.sse_held, c.full.n_held);
+    c.res.rmse_fit = c.res.rmse_heldout = std::numeric_limits<double>::quiet_NaN();
+    c.n_eff = static_cast<double>(c.full.n_fit);
+    c.res.aic = c.n_eff * std::log(c.full.sse_fit / c.n_eff) + 2.0 * c.theta.size();
+    return;
+  }
+  c.res.rmse_fit = rms(c.full.sse_fit, c.full.n_fit);
+  c.res.rmse_heldout = rms(c.full.sse_held, c.full.n_held);
+  const double rho = lag1(P, c.full);
+  c.n_eff = std::max(static_cast<double>(c.full.n_fit) * (1 - rho) / (1 + rho), 10.0);
+  c.res.aic = c.n_eff * std::log(c.full.sse_fit / c.full.n_fit) + 2.0 * c.theta.size();
+}
 
 double still_stage_period(const std::vector<StageScore>& stages) {
   double sum = 0;
@@ -303,10 +324,11 @@ CandFit fit_candidate(const CandidateInputs& in, engine::ExtensionKind kind) {
   const std::size_t nb = base.theta.size();
   CandFit c;
   c.res.kind = kind;
+  ProgressItem item(P.meter.get(), to_string(kind));
   try {
     c.model = base.model;
     c.model.base.extension.kind = kind;
-    const auto ext = extension_specs(kind);
+    const auto ext = scaled_extension_specs(kind, in.scales);
     c.model.specs.insert(c.model.specs.end(), ext.begin(), ext.end());
     c.res.dof = static_cast<int>(ext.size());
     Starts s = candidate_starts(in, kind, ext, &c.res.evals);
@@ -355,6 +377,48 @@ CandFit fit_candidate(const CandidateInputs& in, engine::ExtensionKind kind) {
         append_load_estimates(c.theta, nb, cov, &c.res.params);
     } else if (kind == engine::ExtensionKind::kNormalLoadModulation) {
       append_load_estimates(c.theta, nb, {}, &c.res.params);
+    }
+  } catch (const std::exception& e) {
+    c.res.status = std::string("failed: ") + e.what();
+  }
+  return c;
+}
+
+std::vector<std::vector<double>> candidate_extension_starts(const CandidateInputs& in,
+                                                             engine::ExtensionKind kind,
+                                                             const std::vector<ParamSpec>& ext) {
+  return extension_starts(kind, ext, in.ev, in.scan, in.F_C0, in.scales);
+}
+
+CandFit fit_candidate_stats(const CandidateInputs& in, engine::ExtensionKind kind) {
+  const BaseFit& base = in.base;
+  const std::size_t nb = base.theta.size();
+  CandFit c;
+  c.res.kind = kind;
+  ProgressItem item(in.P.meter.get(), to_string(kind));
+  try {
+    c.model = base.model;
+    c.model.base.extension.kind = kind;
+    const auto ext = scaled_extension_specs(kind, in.scales);
+    c.model.specs.insert(c.model.specs.end(), ext.begin(), ext.end());
+    c.res.dof = static_cast<int>(ext.size());
+    std::vector<std::vector<double>> starts;
+    for (const auto& es : candidate_extension_starts(in, kind, ext)) {
+      std::vector<double> th = base.theta;
+      th.insert(th.end(), es.begin(), es.end());
+      starts.push_back(th);
+    }
+    const FitResult fr = fit(in.P, c.model, starts, Span::kStats, 0, in.o.max_evals_candidate);
+    c.res.evals += fr.evals;
+    if (!fr.ok) throw std::runtime_error(fr.reason);
+    c.theta = fr.theta;
+    c.full = evaluate(in.Ps, c.model, c.theta, Span::kStats, 0);
+    ++c.res.evals;
+    if (!c.full.ok) throw std::runtime_error(c.full.reason);
+    if (!nest_in_base(in.P, c, base, nb)) {
+      score_candidate(in.P, c);
+      c.res.base_params = estimates(c.model, c.theta, {}, 0, nb);
+      c.res.params = estimates(c.model, c.theta, {}, nb, c.theta.size());
     }
   } catch (const std::exception& e) {
     c.res.status = std::string("failed: ") + e.what();

@@ -9,6 +9,7 @@
 #include <stdexcept>
 
 #include "stickslip/diagnosis/detail/diagnose_load.h"
+#include "stickslip/diagnosis/detail/diagnose_progress.h"
 #include "stickslip/diagnosis/detail/diagnose_statfit.h"
 #include "stickslip/engine/metrics.h"
 #include "stickslip/engine/simulate.h"
@@ -48,10 +49,7 @@ double ParamSpec::dvalue_du(double u) const {
   return log ? to_value(u) * (std::log(hi) - std::log(lo)) : hi - lo;
 }
 
-engine::SimConfig FitModel::config(const RunData& run, const std::vector<double>& theta, double t_end,
-                           double rtol) const {
-  engine::SimConfig c = base;
-  measured::apply_conditions(run.cond, c);
+void FitModel::apply(engine::SimConfig& c, const std::vector<double>& theta) const {
   double ratio = -1;
   double load[2] = {0, 0};  // normal-load components (diagnose_load.h)
   bool has_load = false;
@@ -64,6 +62,13 @@ engine::SimConfig FitModel::config(const RunData& run, const std::vector<double>
   }
   if (ratio > 0) c.friction["F_C"] = ratio * c.friction["F_S"];
   if (has_load) apply_load_components(c, load[0], load[1]);
+}
+
+engine::SimConfig FitModel::config(const RunData& run, const std::vector<double>& theta, double t_end,
+                           double rtol) const {
+  engine::SimConfig c = base;
+  measured::apply_conditions(run.cond, c);
+  apply(c, theta);
   c.stages = stages_until(c.stages, t_end);
   c.integrator.kind = engine::IntegratorKind::kAdaptive;
   c.integrator.rtol = rtol;
@@ -259,6 +264,7 @@ void append_windows(Features* a, const Features& b) {
 Evaluation evaluate(const Problem& p, const FitModel& m, const std::vector<double>& theta,
                     Span span, double short_end) {
   if (span == Span::kStats) return evaluate_stats(p, m, theta);
+  if (p.meter) p.meter->tick();
   Evaluation e;
   if (p.stop && p.stop()) {
     e.reason = "cancelled";
@@ -579,6 +585,10 @@ void levenberg_marquardt(Ctx& c, unsigned n) {
 
 }  // namespace
 
+double jacobian_step(Span span) {
+  return span == Span::kFeatures || span == Span::kStats ? kFeatureStep : kTimeDomainStep;
+}
+
 FitResult fit(const Problem& p, const FitModel& m, const std::vector<std::vector<double>>& starts,
               Span span, double short_end, int max_evals) {
   Ctx c{&p, &m, span, short_end, 0, max_evals, {}, std::numeric_limits<double>::infinity(), {}};
@@ -640,52 +650,6 @@ FitResult fit(const Problem& p, const FitModel& m, const std::vector<std::vector
   out.sse = c.best;
   out.evals = c.evals;
   out.ok = std::isfinite(c.best);
-  return out;
-}
-
-std::vector<double> standard_errors(const Problem& p, const FitModel& m,
-                                    const std::vector<double>& theta, double n_over_neff,
-                                    int* evals, std::vector<double>* cov_si) {
-  const std::size_t k = theta.size();
-  std::vector<double> out(k, std::numeric_limits<double>::quiet_NaN());
-  const Evaluation e0 = evaluate(p, m, theta, Span::kFit, 0);
-  ++*evals;
-  if (!e0.ok) return out;
-  const std::vector<double> r0 = fit_residuals(p, e0, Span::kFit, 0);
-  const std::size_t n = r0.size();
-  if (n <= k + 1) return out;
-  Eigen::MatrixXd J(n, k);
-  std::vector<double> u(k);
-  for (std::size_t j = 0; j < k; ++j) u[j] = m.specs[j].to_unit(theta[j]);
-  for (std::size_t j = 0; j < k; ++j) {
-    const double h = u[j] > 0.99 ? -kTimeDomainStep : kTimeDomainStep;
-    std::vector<double> th = theta;
-    th[j] = m.specs[j].to_value(u[j] + h);
-    const Evaluation e = evaluate(p, m, th, Span::kFit, 0);
-    ++*evals;
-    if (!e.ok) return out;
-    const std::vector<double> r = fit_residuals(p, e, Span::kFit, 0);
-    if (r.size() != n) return out;
-    for (std::size_t i = 0; i < n; ++i) J(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j)) = (r[i] - r0[i]) / h;
-  }
-  double sse = 0;
-  for (double r : r0) sse += r * r;
-  const double s2 = sse / static_cast<double>(n - k);
-  const Eigen::MatrixXd JtJ = J.transpose() * J;
-  Eigen::JacobiSVD<Eigen::MatrixXd> svd(JtJ, Eigen::ComputeFullU | Eigen::ComputeFullV);
-  const auto& sv = svd.singularValues();
-  if (sv(0) <= 0 || sv(sv.size() - 1) < 1e-12 * sv(0)) return out;  // not identifiable
-  const Eigen::MatrixXd cov = svd.solve(Eigen::MatrixXd::Identity(k, k)) * s2 * n_over_neff;
-  for (std::size_t j = 0; j < k; ++j)
-    out[j] = std::sqrt(std::max(0.0, cov(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(j)))) *
-             std::fabs(m.specs[j].dvalue_du(u[j]));
-  if (cov_si) {
-    cov_si->assign(k * k, 0.0);
-    for (std::size_t i = 0; i < k; ++i)
-      for (std::size_t j = 0; j < k; ++j)
-        (*cov_si)[i * k + j] = cov(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j)) *
-                               m.specs[i].dvalue_du(u[i]) * m.specs[j].dvalue_du(u[j]);
-  }
   return out;
 }
 

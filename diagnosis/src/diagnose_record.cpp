@@ -104,11 +104,13 @@ RecordInfo analyse_record(const measured::MeasuredRun& run, double holdout_fract
     spec.threshold = drop_threshold(noise_sd);
     spec.lag = lag;
     // First pass over the whole stage: the band edge and the detrending window from its slips.
-    const SlipStats whole = slip_stats(window_samples(r.y, r.dt, s, e), spec);
+    SlipStats whole = slip_stats(window_samples(r.y, r.dt, s, e), spec);
     if (whole.regime != Regime::kCreep && whole.interval_median > 0) {
       spec.f_lo = 0.25 / whole.interval_median;
       spec.detrend_window = 4.0 * whole.interval_median;
     }
+    if (spec.f_lo > 0) whole = slip_stats(window_samples(r.y, r.dt, s, e), spec);
+    r.whole.push_back(whole);
     const double split = s + (1.0 - holdout_fraction) * (e - s);
     for (const bool held : {false, true}) {
       WindowStats w;

@@ -104,6 +104,35 @@ std::vector<ParamSpec> secondary_specs(engine::ModelKind m, const RecordScales& 
   return out;
 }
 
+engine::Dim extension_dimension(const std::string& name) {
+  using engine::Dim;
+  if (name == "sigma2" || name == "c_d") return engine::kDamping;
+  if (name == "dwell_A") return engine::kForce;
+  if (name == "dwell_tau" || name == "sensor_tau") return engine::kTime;
+  if (name == "dwell_v") return engine::kVelocity;
+  if (name == "waviness_lambda") return engine::kLength;
+  if (name == "drift_gamma") return Dim{0, -1, 0};
+  return engine::kDimensionless;  // delta, eps, phi, the load's eta and phi and components, zeta
+}
+
+std::vector<ParamSpec> scaled_extension_specs(engine::ExtensionKind k, const RecordScales& s) {
+  std::vector<ParamSpec> specs = extension_specs(k);
+  for (ParamSpec& p : specs) {
+    const engine::Dim d = extension_dimension(p.name);
+    if (d == engine::kDimensionless) continue;
+    // A range through 0 (drift_gamma) keeps its sign: both ends scale alike.
+    const bool signed_range = p.lo < 0;
+    p.lo *= signed_range ? s.hi(d) : s.lo(d);
+    p.hi *= s.hi(d);
+    p.init = std::clamp(p.init * s.mid(d), p.lo, p.hi);
+  }
+  return specs;
+}
+
+double scaled_extension_value(const std::string& name, double v, const RecordScales& s) {
+  return v * s.mid(extension_dimension(name));
+}
+
 void scale_defaults(engine::ModelKind m, const RecordScales& s, engine::SimConfig* cfg) {
   for (const engine::ParamDef& p : engine::model_traits(m).params)
     if (p.def > 0 && !p.allowed.integer) engine::set_parameter(*cfg, p.name, p.def * s.mid(p.dim));

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "stickslip/diagnosis/detail/diagnose_progress.h"
 #include "stickslip/engine/simulate.h"
 
 namespace stickslip::diagnosis::detail {
@@ -86,15 +87,18 @@ std::vector<SlipStats> simulated_stats(const RunData& r, const std::vector<engin
 }
 
 Evaluation evaluate_stats(const Problem& p, const FitModel& m, const std::vector<double>& theta) {
+  if (p.meter) p.meter->tick();
   Evaluation e;
   if (p.stop && p.stop()) {
     e.reason = "cancelled";
     return e;
   }
   e.sims.resize(p.runs.size());
+  e.stats.resize(p.runs.size());
   std::vector<double> held;
   for (std::size_t k = 0; k < p.runs.size(); ++k) {
     const RunData& r = p.runs[k];
+    if (r.left_out != p.score_left_out) continue;  // a fold: fit the others, score the left out
     engine::SimResult res;
     try {
       res = engine::simulate(stats_config(m, r, theta, p.rtol));
@@ -106,12 +110,12 @@ Evaluation evaluate_stats(const Problem& p, const FitModel& m, const std::vector
       e.reason = "run " + r.name + ": " + to_string(res.status) + " " + res.reason;
       return e;
     }
-    e.stats.push_back(simulated_stats(r, res.trace));
-    for (std::size_t j = 0; j < e.stats.back().size(); ++j) {
+    e.stats[k] = simulated_stats(r, res.trace);
+    for (std::size_t j = 0; j < e.stats[k].size(); ++j) {
       for (const bool h : {false, true}) {
         const WindowStats* w = measured_window(r, static_cast<int>(j), h);
         if (!w) continue;
-        stats_residuals(w->stats, e.stats.back()[j], w->spec, h ? &held : &e.feat);
+        stats_residuals(w->stats, e.stats[k][j], w->spec, h || r.left_out ? &held : &e.feat);
       }
     }
     e.sims[k].ok = true;
@@ -120,7 +124,7 @@ Evaluation evaluate_stats(const Problem& p, const FitModel& m, const std::vector
   for (double v : held) e.sse_held += v * v;
   e.n_fit = e.feat.size();
   e.n_held = held.size();
-  e.ok = e.n_fit > 0;
+  e.ok = e.n_fit > 0 || (p.score_left_out && e.n_held > 0);
   if (!e.ok) e.reason = "no statistics to fit";
   return e;
 }
@@ -145,6 +149,78 @@ void constant_stats_score(const Problem& p, double* sse_fit, std::size_t* n_fit,
       (w.held ? *n_held : *n_fit) += res.size();
     }
   }
+}
+
+}  // namespace stickslip::diagnosis::detail
+
+namespace stickslip::diagnosis::detail {
+
+namespace {
+
+/// The first time in [from, to) where F crosses F0 in the given direction [s]; NaN when none.
+double first_crossing(const std::vector<engine::TraceSample>& tr, double from, double to, double F0,
+                      bool rising) {
+  for (std::size_t i = 1; i < tr.size(); ++i) {
+    if (tr[i].t < from) continue;
+    if (tr[i].t >= to) break;
+    const double a = tr[i - 1].F_d, b = tr[i].F_d;
+    if (rising ? (a < F0 && b >= F0) : (a > F0 && b <= F0)) {
+      const double w = b != a ? (F0 - a) / (b - a) : 0.0;
+      return tr[i - 1].t + w * (tr[i].t - tr[i - 1].t);
+    }
+  }
+  return std::numeric_limits<double>::quiet_NaN();
+}
+
+/// F_d of a trace at the times t + shift (linear interpolation; t increasing).
+std::vector<double> sample_trace(const std::vector<engine::TraceSample>& tr, const std::vector<double>& t,
+                                 double shift) {
+  std::vector<double> out;
+  std::size_t j = 0;
+  for (double ti : t) {
+    const double s = ti + shift;
+    while (j + 2 < tr.size() && tr[j + 1].t < s) ++j;
+    const engine::TraceSample &a = tr[j], &b = tr[j + 1];
+    const double w = b.t > a.t ? std::clamp((s - a.t) / (b.t - a.t), 0.0, 1.0) : 0.0;
+    out.push_back(a.F_d + w * (b.F_d - a.F_d));
+  }
+  return out;
+}
+
+}  // namespace
+
+std::vector<double> aligned_series(const RunData& r, const FitModel& m, const std::vector<double>& theta,
+                                   double rtol, const std::vector<double>& t, double* shift) {
+  *shift = 0;
+  if (r.rec.from_rest) {
+    engine::SimConfig cfg = m.config(r, theta, r.cond.duration, rtol);
+    const engine::SimResult res = engine::simulate(cfg);
+    if (res.status != engine::RunStatus::kOk || res.trace.size() < 2) return {};
+    return sample_trace(res.trace, t, 0.0);
+  }
+  // The burn-in plus a search window for the crossing: a measured period, or ten natural ones.
+  const WindowStats* w = measured_window(r, 0, false);
+  const double period = w && w->stats.interval_median > 0 ? w->stats.interval_median : 10 * natural_period(r.cond);
+  engine::SimConfig cfg = m.config(r, theta, r.cond.duration, rtol);
+  const double search = r.settle + 1.5 * period;
+  bool still = true;
+  for (const engine::Stage& s : cfg.stages) still = still && !s.vibrating();
+  if (still) cfg.integrator.dt_max = std::min(kStillStepMax, natural_period(r.cond) / 20.0);
+  engine::SimConfig probe = cfg;
+  probe.stages = {cfg.stages.front()};
+  probe.stages.front().duration = search;
+  const engine::SimResult pr = engine::simulate(probe);
+  if (pr.status != engine::RunStatus::kOk || pr.trace.size() < 2) return {};
+  double at = first_crossing(pr.trace, r.settle, search, r.rec.preload, r.rec.stuck_at_start);
+  if (!std::isfinite(at)) at = r.settle;
+  *shift = at;
+  cfg.stages.front().duration += at;
+  double total = 0;
+  for (const engine::Stage& s : cfg.stages) total += s.duration;
+  cfg.integrator.max_steps = 1e6 * std::max(total, 1.0);
+  const engine::SimResult res = engine::simulate(cfg);
+  if (res.status != engine::RunStatus::kOk || res.trace.size() < 2) return {};
+  return sample_trace(res.trace, t, at);
 }
 
 }  // namespace stickslip::diagnosis::detail

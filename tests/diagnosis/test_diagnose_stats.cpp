@@ -7,11 +7,12 @@
 #include <random>
 
 #include "stickslip/diagnosis/detail/diagnose_record.h"
-#include "stickslip/diagnosis/detail/diagnose_stats.h"
+#include "stickslip/diagnosis/slip_stats.h"
 #include "stickslip/engine/simulate.h"
 #include "stickslip/measured/synth.h"
 
 using namespace stickslip;
+using namespace stickslip::diagnosis;
 using namespace stickslip::diagnosis::detail;
 
 namespace {

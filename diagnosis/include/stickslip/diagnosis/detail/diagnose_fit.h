@@ -4,6 +4,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <limits>
 #include <string>
 #include <vector>
@@ -42,7 +43,12 @@ struct RunData {
   /// record's t = 0 [s], and per stage the simulated span whose statistics predict the stage's [s].
   double settle = 0;
   std::vector<double> stats_span;
+  /// Left out of a whole-run fold (statistics scoring): not simulated while fitting; scored on
+  /// every window when Problem::score_left_out.
+  bool left_out = false;
 };
+
+class ProgressMeter;
 
 struct Problem {
   std::vector<RunData> runs;
@@ -53,6 +59,11 @@ struct Problem {
   /// The runs are scored on their statistics (Span::kStats) rather than sample by sample: some
   /// run is not phase-locked (RecordInfo::phase_locked).
   bool stats = false;
+  /// Statistics scoring of a whole-run fold: simulate the left-out runs and score all their
+  /// windows as held out (the others' windows are then not scored).
+  bool score_left_out = false;
+  /// Ticked once per evaluation (null: no progress reporting).
+  std::shared_ptr<ProgressMeter> meter;
 };
 
 /// One scalar parameter in the unit box: u in [0, 1] maps to [lo, hi] linearly or in log.
@@ -70,6 +81,8 @@ struct ParamSpec {
 struct FitModel {
   engine::SimConfig base;  ///< model kind, friction parameters (fixed ones), extension kind
   std::vector<ParamSpec> specs;
+  /// Sets the parameters theta (SI values, one per spec) in c.
+  void apply(engine::SimConfig& c, const std::vector<double>& theta) const;
   /// Configuration for a run with parameters theta (SI values, one per spec).
   engine::SimConfig config(const RunData& run, const std::vector<double>& theta, double t_end,
                    double rtol) const;
@@ -121,11 +134,9 @@ struct FitResult {
 FitResult fit(const Problem& p, const FitModel& m, const std::vector<std::vector<double>>& starts,
               Span span, double short_end, int max_evals);
 
-/// Standard errors (SI) from the finite-difference Jacobian, inflated by n / n_eff; cov_si
-/// (optional) receives the whole covariance (SI, row-major k x k) when it could be computed.
-std::vector<double> standard_errors(const Problem& p, const FitModel& m,
-                                    const std::vector<double>& theta, double n_over_neff,
-                                    int* evals, std::vector<double>* cov_si = nullptr);
+/// The first forward-difference step in the unit box of the Levenberg-Marquardt fits of a span
+/// (time domain 1e-4; cycle features and statistics 2e-3).
+double jacobian_step(Span span);
 
 /// sqrt(sse / n) [N]; NaN when n = 0.
 double rms(double sse, std::size_t n);

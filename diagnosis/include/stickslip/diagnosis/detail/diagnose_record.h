@@ -19,7 +19,7 @@
 #include <string>
 #include <vector>
 
-#include "stickslip/diagnosis/detail/diagnose_stats.h"
+#include "stickslip/diagnosis/slip_stats.h"
 #include "stickslip/measured/measured.h"
 
 namespace stickslip::diagnosis::detail {
@@ -49,6 +49,7 @@ struct RecordInfo {
   bool stuck_at_start = true;
   double level = 0;                   ///< median of the record [N]
   std::vector<WindowStats> windows;   ///< per stage: fitted part, then held part
+  std::vector<SlipStats> whole;       ///< per stage: the statistics of the whole stage
   bool phase_locked = false;
   std::string why;                    ///< the reason for the scoring (phase_locked or not)
 };

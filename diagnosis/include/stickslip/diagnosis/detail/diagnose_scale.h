@@ -48,6 +48,16 @@ std::vector<ParamSpec> scaled_base_specs(engine::ModelKind m, const RecordScales
 /// The model's secondary parameters (see above) as specs at the record's scales.
 std::vector<ParamSpec> secondary_specs(engine::ModelKind m, const RecordScales& s);
 
+/// The dimension of a catalogue extension parameter (extensions.h declares none; written here).
+engine::Dim extension_dimension(const std::string& name);
+
+/// extension_specs(k) moved to the record's scales (ranges and starts).
+std::vector<ParamSpec> scaled_extension_specs(engine::ExtensionKind k, const RecordScales& s);
+
+/// A value of extension parameter `name` written at Table 1's scale, moved to the record's
+/// (the central factor).
+double scaled_extension_value(const std::string& name, double v, const RecordScales& s);
+
 /// The model's parameter defaults moved to the record's scales, set in cfg (the values a fit
 /// holds every parameter it does not free at).
 void scale_defaults(engine::ModelKind m, const RecordScales& s, engine::SimConfig* cfg);

@@ -44,6 +44,16 @@ std::vector<SlipStats> simulated_stats(const RunData& r, const std::vector<engin
 /// evaluate(p, m, theta, Span::kStats).
 Evaluation evaluate_stats(const Problem& p, const FitModel& m, const std::vector<double>& theta);
 
+/// The model's F_d at the times t of run r, aligned on the record's initial state (the estimated
+/// initial state; docs/diagnose.md "Records that start anywhere"): a record from rest is
+/// simulated from rest; any other from rest through the burn-in, and record time 0 is put at the
+/// first time after the burn-in (within one and a half measured periods) where the simulated F_d
+/// crosses the measured preload in the record's direction (rising when the body starts stuck,
+/// falling when sliding), or at the burn-in's end when it never does. *shift: simulated time of
+/// the record's t = 0 [s]. Empty when a simulation fails.
+std::vector<double> aligned_series(const RunData& r, const FitModel& m, const std::vector<double>& theta,
+                                   double rtol, const std::vector<double>& t, double* shift);
+
 /// The statistics score of a constant level per run (no stick-slip): the trivial predictor of the
 /// statistics; sse over the fitted (held-out) windows into *fit (*held), with counts.
 void constant_stats_score(const Problem& p, double* sse_fit, std::size_t* n_fit, double* sse_held,

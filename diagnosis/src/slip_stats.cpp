@@ -1,5 +1,5 @@
 // Noise, spikes and the statistics of stick-slip (diagnose_stats.h).
-#include "stickslip/diagnosis/detail/diagnose_stats.h"
+#include "stickslip/diagnosis/slip_stats.h"
 
 #include <algorithm>
 #include <cmath>
@@ -9,7 +9,7 @@
 #include <numeric>
 #include <unsupported/Eigen/FFT>
 
-namespace stickslip::diagnosis::detail {
+namespace stickslip::diagnosis {
 
 namespace {
 
@@ -368,4 +368,4 @@ void stats_residuals(const SlipStats& m, const SlipStats& s, const StatsSpec& sp
   push(dm && std::isfinite(m.f_peak), ds && std::isfinite(s.f_peak), log_ratio(s.f_peak, m.f_peak, 1.3));
 }
 
-}  // namespace stickslip::diagnosis::detail
+}  // namespace stickslip::diagnosis

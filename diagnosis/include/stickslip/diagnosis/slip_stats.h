@@ -1,7 +1,8 @@
 #pragma once
-// Internal to the diagnosis: what a drive-force record says before any model is fitted, and the
-// statistics of its stick-slip, computed the same way on a measured and a simulated signal
-// (docs/diagnose.md "Statistics"). SI units: t [s], F_d [N].
+// What a drive-force record says before any model is fitted, and the statistics of its
+// stick-slip, computed the same way on a measured and a simulated signal (docs/diagnose.md
+// "Statistics"); the diagnosis fits and scores models on them, and `stickslip validate` reports
+// them. SI units: t [s], F_d [N].
 //
 // Noise (estimate_noise). The noise is taken as AR(1): e_k = rho e_{k-1} + ..., sd sigma. Its
 // level and correlation come from robust (median absolute deviation) variances of the centred
@@ -45,7 +46,7 @@
 #include <string>
 #include <vector>
 
-namespace stickslip::diagnosis::detail {
+namespace stickslip::diagnosis {
 
 inline constexpr double kSpikeSigmas = 6.0;
 inline constexpr int kSpikeHalf = 6;
@@ -128,4 +129,4 @@ void stats_residuals(const SlipStats& measured, const SlipStats& simulated, cons
 inline constexpr double kThresholdSigmas = 7.0;
 double drop_threshold(double smoothed_noise_sd);
 
-}  // namespace stickslip::diagnosis::detail
+}  // namespace stickslip::diagnosis
