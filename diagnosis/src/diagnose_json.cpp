@@ -64,7 +64,9 @@ nlohmann::json holdout_stages_json(const RunHoldout& h) {
   return a;
 }
 
-nlohmann::json stats_json(const SlipStats& s) {
+}  // namespace
+
+nlohmann::json stats_to_json(const SlipStats& s) {
   using common::json_number;
   return {{"duration", json_number(s.duration)},
           {"mean", json_number(s.mean)},
@@ -87,15 +89,17 @@ nlohmann::json stats_json(const SlipStats& s) {
           {"regime", to_string(s.regime)}};
 }
 
+namespace {
+
 nlohmann::json comparisons_json(const std::vector<StatsComparison>& cs) {
   nlohmann::json a = nlohmann::json::array();
   for (const auto& c : cs)
     a.push_back({{"run", c.run},
                  {"stage", c.stage + 1},
                  {"part", c.held ? "held_out" : "fitted"},
-                 {"measured", stats_json(c.measured)},
-                 {"base", stats_json(c.base)},
-                 {"extended", stats_json(c.extended)},
+                 {"measured", stats_to_json(c.measured)},
+                 {"base", stats_to_json(c.base)},
+                 {"extended", stats_to_json(c.extended)},
                  {"score_base", common::json_number(c.score_base)},
                  {"score_extended", common::json_number(c.score_extended)}});
   return a;
@@ -103,18 +107,7 @@ nlohmann::json comparisons_json(const std::vector<StatsComparison>& cs) {
 
 nlohmann::json readings_json(const Diagnosis& d) {
   nlohmann::json a = nlohmann::json::array();
-  for (const auto& r : d.readings)
-    a.push_back({{"run", r.run},
-                 {"scoring", r.scoring},
-                 {"why", r.why},
-                 {"noise_sigma", common::json_number(r.noise_sigma)},
-                 {"noise_rho", common::json_number(r.noise_rho)},
-                 {"spikes", r.spikes},
-                 {"spike_fraction", common::json_number(r.spike_fraction)},
-                 {"preload", common::json_number(r.preload)},
-                 {"from_rest", r.from_rest},
-                 {"stuck_at_start", r.stuck_at_start},
-                 {"burn_in", common::json_number(r.burn_in)}});
+  for (const auto& r : d.readings) a.push_back(reading_to_json(r));
   return a;
 }
 
@@ -136,6 +129,20 @@ nlohmann::json identifiability_json(const std::vector<ParamStatus>& ps) {
 }
 
 }  // namespace
+
+nlohmann::json reading_to_json(const RunReading& r) {
+  return {{"run", r.run},
+          {"scoring", r.scoring},
+          {"why", r.why},
+          {"noise_sigma", common::json_number(r.noise_sigma)},
+          {"noise_rho", common::json_number(r.noise_rho)},
+          {"spikes", r.spikes},
+          {"spike_fraction", common::json_number(r.spike_fraction)},
+          {"preload", common::json_number(r.preload)},
+          {"from_rest", r.from_rest},
+          {"stuck_at_start", r.stuck_at_start},
+          {"burn_in", common::json_number(r.burn_in)}};
+}
 
 nlohmann::json calibrated_json(const CalibratedModel& m) {
   nlohmann::json p = nlohmann::json::object();

@@ -25,6 +25,7 @@ void apply_effect_options(const std::string& effect, const std::vector<std::stri
 void add_simulate_command(CLI::App& app, int& exit_code);
 void add_synth_command(CLI::App& app, int& exit_code);
 void add_diagnose_command(CLI::App& app, int& exit_code);
+void add_validate_command(CLI::App& app, int& exit_code);  ///< `validate DIAGNOSIS MANIFEST`
 void add_table_command(CLI::App& app, int& exit_code);
 void add_study_command(CLI::App& app, int& exit_code);
 void add_store_command(CLI::App& app, int& exit_code);  ///< `store check DB`

@@ -323,6 +323,10 @@ Diagnosis diagnose(const measured::MeasuredDataset& data, const DiagnoseOptions&
 /// diagnosis.json content (fields of issue 5; NaN/Inf as null). series are not included.
 /// Follows schemas/diagnosis.schema.json.
 nlohmann::json to_json(const Diagnosis& d);
+/// A window's statistics and a run's reading as JSON (the "slipstats" and "reading" of
+/// schemas/diagnosis.schema.json).
+nlohmann::json stats_to_json(const SlipStats& s);
+nlohmann::json reading_to_json(const RunReading& r);
 /// A calibrated model as JSON ({"model", "effect", "params": {name: value}, "offset"}) and back
 /// (std::invalid_argument naming a bad field; engine names are checked when the model is built).
 nlohmann::json calibrated_json(const CalibratedModel& m);
