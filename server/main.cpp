@@ -23,6 +23,7 @@
 #include "stickslip/common/text.h"
 #include "stickslip/server/api.h"
 #include "stickslip/server/diagnosis_worker.h"
+#include "stickslip/server/validation_worker.h"
 #include "stickslip/server/http_server.h"
 #include "stickslip/server/worker.h"
 #include "stickslip/store/writer_lock.h"
@@ -128,6 +129,7 @@ int main(int argc, char** argv) {
   api.study_cache_ttl = std::chrono::milliseconds(study_cache_ms);
   net.max_body_bytes = api.max_body_bytes;
   net.path_body_limits["/v1/diagnoses"] = api.max_diagnosis_body_bytes;
+  net.path_body_limits["/v1/validations"] = api.max_diagnosis_body_bytes;
   api.diagnosis_threads = diag.threads;
   diag.nice = work.nice;
   net.read_timeout = std::chrono::seconds(read_timeout_s);
@@ -157,9 +159,15 @@ int main(int argc, char** argv) {
     auto health = std::make_shared<server::Health>();
     server::Worker worker(api.db, work, &studies::run_study, health);
     server::DiagnosisWorker diagnoses(api.db, diag, &server::run_diagnosis, health);
+    // Validations (POST /v1/validations) run on their own worker thread, with the diagnoses'
+    // threads and nice value.
+    server::ValidationWorkerOptions val;
+    val.threads = diag.threads;
+    val.nice = diag.nice;
+    server::ValidationWorker validations(api.db, val, health);
     // Opens the store: takes its writer lock (a store has one writer; another holder is named
     // in the error, exit 1) and checks a damaged file before anything is written to it.
-    server::Api handlers(api, &worker, &diagnoses, health);
+    server::Api handlers(api, &worker, &diagnoses, health, &validations);
     store::WriterLock lock = store::WriterLock::acquire(api.db, "stickslipd");
     server::HttpServer http(
         net, [&handlers](const server::Request& r) { return handlers.handle(r); },
@@ -173,6 +181,7 @@ int main(int argc, char** argv) {
     http.start();
     worker.start();
     diagnoses.start();
+    validations.start();
 
     int sig = 0;
     sigwait(&signals, &sig);
@@ -180,7 +189,8 @@ int main(int argc, char** argv) {
                  sig == SIGTERM ? "SIGTERM" : "SIGINT");
     http.stop_accepting();
     worker.shutdown();
-    const bool diagnosis_ended = diagnoses.shutdown(std::chrono::seconds(diagnosis_grace_s));
+    const bool diagnosis_ended = diagnoses.shutdown(std::chrono::seconds(diagnosis_grace_s)) &
+                                 validations.shutdown(std::chrono::seconds(diagnosis_grace_s));
     http.stop();
     if (!diagnosis_ended) {
       // The running diagnosis cannot be interrupted and is already back in the queue; its

@@ -69,8 +69,8 @@ std::vector<StatsComparison> compare_stats(const Problem& P, const Evaluation& b
   std::vector<StatsComparison> out;
   for (std::size_t k = 0; k < P.runs.size(); ++k) {
     const RunData& r = P.runs[k];
-    for (const WindowStats& w : r.rec.windows) {
-      const auto j = static_cast<std::size_t>(w.stage);
+    for (std::size_t j = 0; j < r.rec.windows.size(); ++j) {
+      const WindowStats& w = r.rec.windows[j];
       if (k >= base.stats.size() || j >= base.stats[k].size()) continue;
       StatsComparison c;
       c.run = r.name;

@@ -33,7 +33,7 @@ std::vector<double> dwell_origin(const FitModel& base, std::vector<double> theta
   std::size_t iS = theta.size(), iR = theta.size();
   for (std::size_t j = 0; j < base.specs.size() && j < theta.size(); ++j) {
     if (base.specs[j].name == "F_S") iS = j;
-    if (base.specs[j].name == "F_C/F_S") iR = j;
+    if (const auto r = ratio_parts(base.specs[j].name); r && r->first == "F_C") iR = j;
   }
   if (iS >= theta.size() || !(period > 0) || !(tau > 0)) return theta;
   const double F_S = theta[iS];
@@ -55,8 +55,11 @@ std::vector<double> slip_velocity_origin(const FitModel& base, std::vector<doubl
                                          double c, double v_slip) {
   for (std::size_t j = 0; j < base.specs.size() && j < theta.size(); ++j) {
     if (base.specs[j].name == "F_C") theta[j] = std::max(theta[j] - c * v_slip, 0.5 * theta[j]);
-    if (base.specs[j].name == "F_C/F_S")
-      theta[j] = std::max(theta[j] - c * v_slip / theta[0], base.specs[j].lo);
+    const auto r = ratio_parts(base.specs[j].name);
+    if (!r || r->first != "F_C") continue;
+    for (std::size_t i = 0; i < base.specs.size() && i < theta.size(); ++i)
+      if (base.specs[i].name == r->second)  // F_C as a fraction of its denominator (F_S)
+        theta[j] = std::max(theta[j] - c * v_slip / theta[i], base.specs[j].lo);
   }
   return theta;
 }

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <nlopt.hpp>
 #include <stdexcept>
 
@@ -37,6 +38,12 @@ std::vector<engine::Stage> stages_until(const std::vector<engine::Stage>& stages
 
 }  // namespace
 
+std::optional<std::pair<std::string, std::string>> ratio_parts(const std::string& name) {
+  const auto slash = name.find('/');
+  if (slash == std::string::npos) return std::nullopt;
+  return std::make_pair(name.substr(0, slash), name.substr(slash + 1));
+}
+
 double ParamSpec::to_value(double u) const {
   u = std::clamp(u, 0.0, 1.0);
   return log ? std::exp(std::log(lo) + u * (std::log(hi) - std::log(lo))) : lo + u * (hi - lo);
@@ -50,17 +57,20 @@ double ParamSpec::dvalue_du(double u) const {
 }
 
 void FitModel::apply(engine::SimConfig& c, const std::vector<double>& theta) const {
-  double ratio = -1;
   double load[2] = {0, 0};  // normal-load components (diagnose_load.h)
   bool has_load = false;
   for (std::size_t i = 0; i < specs.size(); ++i) {
-    if (specs[i].name == "F_C/F_S") ratio = theta[i];
-    else if (is_load_component(specs[i].name)) {
+    if (ratio_parts(specs[i].name)) continue;  // after the others (its denominator first)
+    if (is_load_component(specs[i].name)) {
       load[specs[i].name == kLoadInPhase ? 0 : 1] = theta[i];
       has_load = true;
-    } else engine::set_parameter(c, specs[i].name, theta[i]);
+    } else {
+      engine::set_parameter(c, specs[i].name, theta[i]);
+    }
   }
-  if (ratio > 0) c.friction["F_C"] = ratio * c.friction["F_S"];
+  for (std::size_t i = 0; i < specs.size(); ++i)
+    if (const auto parts = ratio_parts(specs[i].name))
+      engine::set_parameter(c, parts->first, theta[i] * engine::get_parameter(c, parts->second));
   if (has_load) apply_load_components(c, load[0], load[1]);
 }
 
@@ -725,11 +735,13 @@ std::vector<ParamEstimate> estimates(const FitModel& m, const std::vector<double
   for (std::size_t i = from; i < to; ++i) {
     std::string name = m.specs[i].name;
     double v = theta[i], s = se.empty() ? std::numeric_limits<double>::quiet_NaN() : se[i];
-    if (name == "F_C/F_S") {  // report F_C itself
-      const double F_S = theta[0];
-      name = "F_C";
-      v = theta[i] * F_S;
-      s = std::isfinite(s) ? s * F_S : s;
+    if (const auto parts = ratio_parts(name)) {  // report the parameter itself (a ratio's times its denominator)
+      engine::SimConfig c = m.base;
+      m.apply(c, theta);
+      const double den = engine::get_parameter(c, parts->second);
+      name = parts->first;
+      v = theta[i] * den;
+      s = std::isfinite(s) ? s * den : s;
     }
     out.push_back({name, v, s});
   }

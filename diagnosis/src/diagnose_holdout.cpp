@@ -22,7 +22,8 @@ struct FoldFit {
   double score_sse = 0;    ///< statistics residuals of run k's windows
   std::size_t score_n = 0;
   std::vector<StageScore> stages;
-  std::vector<SlipStats> stats;  ///< per stage of run k
+  std::vector<SlipStats> stats;  ///< per window of run k
+  std::vector<SlipStats> whole;  ///< per stage of run k
   std::string status = "ok";
   int evals = 0;
 };
@@ -48,6 +49,7 @@ FoldFit fold_fit(const CalibrationInputs& in, std::size_t k, const FitModel& m,
   out.score_sse = s.sse_held;
   out.score_n = s.n_held;
   out.stats = s.stats[k];
+  out.whole = s.whole[k];
   if (P.stats) return out;
   const Evaluation e = evaluate(score, m, fr.theta, Span::kFull, 0);
   ++out.evals;
@@ -66,8 +68,8 @@ FoldFit fold_fit(const CalibrationInputs& in, std::size_t k, const FitModel& m,
 void judge_fold(const RunData& r, const FoldFit& x, RunHoldout* h) {
   h->mean_error = h->drop_error = h->rate_error = kNaN;
   h->reproduced = false;
-  if (r.rec.whole.empty() || x.stats.empty()) return;
-  const SlipStats &m = r.rec.whole.front(), &s = x.stats.front();
+  if (r.rec.whole.empty() || x.whole.empty()) return;
+  const SlipStats &m = r.rec.whole.front(), &s = x.whole.front();
   h->mean_error = (s.mean - m.mean) / std::fabs(m.mean);
   const bool dm = m.regime != Regime::kCreep, ds = s.regime != Regime::kCreep;
   if (dm && ds) {

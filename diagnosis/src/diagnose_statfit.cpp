@@ -67,7 +67,40 @@ engine::SimConfig stats_config(const FitModel& m, const RunData& r, const std::v
   return cfg;
 }
 
+namespace {
+
+/// The simulated F_d of a trace in [t0, t1) (simulated time) [N].
+std::vector<double> trace_window(const std::vector<engine::TraceSample>& trace, double t0, double t1,
+                                 double dt) {
+  std::vector<double> y;
+  y.reserve(static_cast<std::size_t>(std::max(0.0, (t1 - t0) / dt)) + 2);
+  for (const engine::TraceSample& q : trace)
+    if (q.t >= t0 - 1e-12 && q.t < t1 - 1e-12) y.push_back(q.F_d);
+  return y;
+}
+
+}  // namespace
+
 std::vector<SlipStats> simulated_stats(const RunData& r, const std::vector<engine::TraceSample>& trace) {
+  std::vector<SlipStats> out;
+  const auto stages = record_stages(r.cond);
+  for (const WindowStats& w : r.rec.windows) {
+    const auto j = static_cast<std::size_t>(w.stage);
+    if (j >= stages.size() || j >= r.stats_span.size()) {
+      out.emplace_back();
+      continue;
+    }
+    // The whole stage simulated: the measured window itself; else the simulated span stands for
+    // every window of the stage.
+    const bool whole = r.stats_span[j] >= stages[j].second - stages[j].first - 1e-9;
+    const double t0 = r.settle + (whole ? w.t0 : stages[j].first);
+    const double t1 = whole ? r.settle + w.t1 : t0 + r.stats_span[j];
+    out.push_back(slip_stats(trace_window(trace, t0, t1, r.rec.dt), w.spec));
+  }
+  return out;
+}
+
+std::vector<SlipStats> simulated_whole(const RunData& r, const std::vector<engine::TraceSample>& trace) {
   std::vector<SlipStats> out;
   const auto stages = record_stages(r.cond);
   for (std::size_t j = 0; j < stages.size() && j < r.stats_span.size(); ++j) {
@@ -76,12 +109,8 @@ std::vector<SlipStats> simulated_stats(const RunData& r, const std::vector<engin
       out.emplace_back();
       continue;
     }
-    const double t0 = r.settle + stages[j].first, t1 = t0 + r.stats_span[j];
-    std::vector<double> y;
-    y.reserve(static_cast<std::size_t>((t1 - t0) / r.rec.dt) + 2);
-    for (const engine::TraceSample& q : trace)
-      if (q.t >= t0 - 1e-12 && q.t < t1 - 1e-12) y.push_back(q.F_d);
-    out.push_back(slip_stats(y, w->spec));
+    const double t0 = r.settle + stages[j].first;
+    out.push_back(slip_stats(trace_window(trace, t0, t0 + r.stats_span[j], r.rec.dt), w->spec));
   }
   return out;
 }
@@ -95,6 +124,7 @@ Evaluation evaluate_stats(const Problem& p, const FitModel& m, const std::vector
   }
   e.sims.resize(p.runs.size());
   e.stats.resize(p.runs.size());
+  e.whole.resize(p.runs.size());
   std::vector<double> held;
   for (std::size_t k = 0; k < p.runs.size(); ++k) {
     const RunData& r = p.runs[k];
@@ -111,12 +141,10 @@ Evaluation evaluate_stats(const Problem& p, const FitModel& m, const std::vector
       return e;
     }
     e.stats[k] = simulated_stats(r, res.trace);
-    for (std::size_t j = 0; j < e.stats[k].size(); ++j) {
-      for (const bool h : {false, true}) {
-        const WindowStats* w = measured_window(r, static_cast<int>(j), h);
-        if (!w) continue;
-        stats_residuals(w->stats, e.stats[k][j], w->spec, h || r.left_out ? &held : &e.feat);
-      }
+    e.whole[k] = simulated_whole(r, res.trace);
+    for (std::size_t i = 0; i < e.stats[k].size(); ++i) {
+      const WindowStats& w = r.rec.windows[i];
+      stats_residuals(w.stats, e.stats[k][i], w.spec, w.held || r.left_out ? &held : &e.feat);
     }
     e.sims[k].ok = true;
   }

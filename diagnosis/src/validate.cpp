@@ -89,7 +89,7 @@ std::vector<SlipStats> predicted_stats(const RunData& r, const FitModel& m, doub
   const engine::SimResult res = engine::simulate(stats_config(m, r, {}, rtol));
   if (res.status != engine::RunStatus::kOk || res.trace.size() < 4)
     throw std::runtime_error(std::string(to_string(res.status)) + " " + res.reason);
-  return simulated_stats(r, res.trace);
+  return simulated_whole(r, res.trace);
 }
 
 void judge(StagePrediction* p) {

@@ -64,9 +64,7 @@ struct Progress {
 };
 
 struct DiagnoseOptions {
-  std::vector<engine::ModelKind> models = {
-      engine::model_kind<engine::Dahl>, engine::model_kind<engine::Karnopp>,
-      engine::model_kind<engine::ResetIntegrator>, engine::model_kind<engine::LuGre>};
+  std::vector<engine::ModelKind> models = engine::all_models();  ///< every registered model
   std::vector<engine::ExtensionKind> candidates = engine::extension_catalogue();
   double fit_rate = 250.0;              ///< decimated samples per second [Hz]
   double holdout_fraction = 0.3;        ///< last part of every stage held out [-]

@@ -5,6 +5,8 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <optional>
+#include <utility>
 #include <limits>
 #include <string>
 #include <vector>
@@ -66,9 +68,13 @@ struct Problem {
   std::shared_ptr<ProgressMeter> meter;
 };
 
+/// The numerator and denominator of a ratio fit "a/b" (ParamDef::fit.relative_to); nullopt for a
+/// plain parameter name.
+std::optional<std::pair<std::string, std::string>> ratio_parts(const std::string& name);
+
 /// One scalar parameter in the unit box: u in [0, 1] maps to [lo, hi] linearly or in log.
 struct ParamSpec {
-  std::string name;  ///< engine parameter name, or "F_C/F_S" (ratio, applied after F_S)
+  std::string name;  ///< engine parameter name, or a ratio "a/b" (fits a / b; applied after b)
   double lo, hi;
   bool log;
   double init;
@@ -109,8 +115,9 @@ struct Evaluation {
   std::size_t n_fit = 0, n_held = 0;
   std::vector<RunSim> sims;  ///< per run
   std::vector<double> feat;  ///< kFeatures, kStats: the residuals (fixed length per problem)
-  /// kStats: the simulated statistics per run and stage.
-  std::vector<std::vector<SlipStats>> stats;
+  /// kStats: the simulated statistics per run and window (aligned with RecordInfo::windows),
+  /// and per run and whole stage (simulated_whole).
+  std::vector<std::vector<SlipStats>> stats, whole;
 };
 
 /// Simulates every run up to the span's end and scores the samples. Short: fit samples with

@@ -38,8 +38,13 @@ void plan_stats(RunData& r);
 engine::SimConfig stats_config(const FitModel& m, const RunData& r, const std::vector<double>& theta,
                                double rtol);
 
-/// The simulated statistics of every stage of r from a trace of stats_config.
+/// The simulated statistics of every window of r (aligned with r.rec.windows) from a trace of
+/// stats_config: over the measured window itself when the whole stage is simulated (a run of
+/// several stages, a short record), else over the simulated span of its stage.
 std::vector<SlipStats> simulated_stats(const RunData& r, const std::vector<engine::TraceSample>& trace);
+/// The simulated statistics of every stage of r over its simulated span (the prediction of the
+/// whole stage).
+std::vector<SlipStats> simulated_whole(const RunData& r, const std::vector<engine::TraceSample>& trace);
 
 /// evaluate(p, m, theta, Span::kStats).
 Evaluation evaluate_stats(const Problem& p, const FitModel& m, const std::vector<double>& theta);
