@@ -50,10 +50,12 @@ void judge_window(const StatsComparison& c, const StatsSpec& spec, std::vector<s
       missing->push_back(at + fmt("drop rate off by a factor %.2f (%.3g /s predicted, %.3g /s measured)",
                                   fr, s.rate, m.rate));
   }
-  const double dm = (s.mean - m.mean) / std::fabs(m.mean);
+  // In per cent of the larger of the window's mean and the run's level (a vibrating stage's mean
+  // may nearly vanish).
+  const double dm = (s.mean - m.mean) / std::max(std::fabs(m.mean), std::fabs(spec.level));
   if (std::fabs(dm) > kAdequateMean)
-    missing->push_back(at + fmt("mean level off by %+.0f %% (%.4g N predicted, %.4g N measured)", 100 * dm,
-                                s.mean, m.mean));
+    missing->push_back(at + fmt("mean level off by %+.0f %% of the level (%.4g N predicted, %.4g N measured)",
+                                100 * dm, s.mean, m.mean));
 }
 
 }  // namespace

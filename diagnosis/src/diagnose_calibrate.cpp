@@ -105,11 +105,13 @@ void free_secondaries(const CalibrationInputs& in, engine::ModelKind kind, BaseF
       b.cal.identifiability.push_back({p.name, "held", engine::get_parameter(b.model.base, p.name),
                                        "not fitted: no fit range (a catalogue effect stands for it)"});
   }
+  b.origin = b.theta;
   if (freed.specs.size() == b.model.specs.size()) return;
   const FitResult fr = fit(P, freed, {theta}, span, 0, in.o.max_evals_base / 2);
   b.cal.evals += fr.evals;
   if (!fr.ok) return;
   b.model = freed;
+  b.origin = theta;
   b.theta = fr.theta;
 }
 

@@ -156,6 +156,59 @@ struct Starts {
   std::vector<std::vector<double>> all, held;
 };
 
+/// Viscous friction and drive damping both add force in proportion to the slip velocity. A base
+/// without them absorbs that force by a raised F_C and a v_s far below its true value (hidden
+/// sigma2 = 60 N s/m: v_s 7.2e-5 for 3.2e-4 m/s), and the feature objective has a false minimum
+/// there: refitted from the base optimum with the size held, v_s runs to its lower bound. So
+/// these also get a second profile start with v_s held at its nominal value (the spec's start)
+/// and the other base parameters refitted (pm: the base with the extension held at es); phase B
+/// then picks the better start by the time-domain objective.
+void held_vs_start(const CandidateInputs& in, const FitModel& pm, const std::vector<double>& origin,
+                   const std::vector<double>& es, int* evals, Starts* s) {
+  const BaseFit& base = in.base;
+  const std::size_t nb = base.theta.size();
+  std::size_t iv = nb;
+  for (std::size_t j = 0; j < nb; ++j)
+    if (base.model.specs[j].name == "v_s") iv = j;
+  if (iv >= nb) return;
+  FitModel hm = pm;
+  engine::set_parameter(hm.base, "v_s", base.model.specs[iv].init);
+  hm.specs.erase(hm.specs.begin() + static_cast<std::ptrdiff_t>(iv));
+  std::vector<double> h0 = origin;
+  h0.erase(h0.begin() + static_cast<std::ptrdiff_t>(iv));
+  const FitResult hr = fit(in.P, hm, {h0}, Span::kFeatures, 0, in.o.max_evals_profile);
+  *evals += hr.evals;
+  if (!hr.ok) return;
+  std::vector<double> th2 = hr.theta;
+  th2.insert(th2.begin() + static_cast<std::ptrdiff_t>(iv), base.model.specs[iv].init);
+  th2.insert(th2.end(), es.begin(), es.end());
+  s->all.push_back(th2);
+  s->held.push_back(th2);
+}
+
+/// The size grid is coarse (20, 60, 150; dwell A 0.3, 1) and the profile's minimum narrow on long
+/// still stages: refine it by bisection between the best size and its better neighbour, the
+/// other parameters (dwell_tau) held at the best point's; each new point is a start.
+template <class Held, class Shifted>
+void bisect_profile(const CandidateInputs& in, const Held& held_model, const Shifted& shifted_origin,
+                    std::vector<ProfilePoint>* profiles, int* evals, Starts* s) {
+  for (int step = 0; step < 3; ++step) {
+    const double size = next_profile_size(*profiles);
+    if (!(size > 0)) break;
+    const ProfilePoint best = best_profile(*profiles);  // a copy: profiles grows below
+    std::vector<double> es = {size};
+    es.insert(es.end(), best.rest.begin(), best.rest.end());
+    const FitResult pr = fit(in.P, held_model(es), {best.theta, shifted_origin(es)}, Span::kFeatures, 0,
+                             in.o.max_evals_profile);
+    *evals += pr.evals;
+    if (!pr.ok) break;
+    profiles->push_back({size, pr.sse, pr.theta, best.rest});
+    std::vector<double> th = pr.theta;
+    th.insert(th.end(), es.begin(), es.end());
+    s->all.push_back(th);
+  }
+}
+
 /// Starting points of the candidate `kind` (full theta: base parameters, then ext's). Effects
 /// that act on the slip itself (viscous, drive damping, Stribeck shape, dwell time) change the
 /// stick-slip cycle so much that the base optimum is no start for a moderate size: their cycle
@@ -168,6 +221,7 @@ Starts candidate_starts(const CandidateInputs& in, engine::ExtensionKind kind,
   const BaseFit& base = in.base;
   const DiagnoseOptions& o = in.o;
   const std::size_t nb = base.theta.size();
+  const std::vector<double>& origin = in.origin.empty() ? base.theta : in.origin;
   Starts s;
   const bool slip_force = kind == engine::ExtensionKind::kViscous || kind == engine::ExtensionKind::kDriveDamping;
   const bool profile = slip_force ||
@@ -195,18 +249,18 @@ Starts candidate_starts(const CandidateInputs& in, engine::ExtensionKind kind,
     return pm;
   };
   const auto shifted_origin = [&](const std::vector<double>& es) {
-    return slip_force ? slip_velocity_origin(base.model, base.theta, es[0], in.v_slip)
-                      : dwell_origin(base.model, base.theta, es[0], es[1], in.still_period);
+    return slip_force ? slip_velocity_origin(base.model, origin, es[0], in.v_slip)
+                      : dwell_origin(base.model, origin, es[0], es[1], in.still_period);
   };
   const std::vector<double> neutral_ext = neutral_extension(kind);
   std::vector<ProfilePoint> profiles = {
-      {neutral_ext[0], in.base_feature_sse, base.theta, {neutral_ext.begin() + 1, neutral_ext.end()}}};
+      {neutral_ext[0], in.base_feature_sse, origin, {neutral_ext.begin() + 1, neutral_ext.end()}}};
   for (const auto& es : ext_starts) {
-    std::vector<double> th = base.theta;
+    std::vector<double> th = origin;
     const bool neutral = profile && es[0] == neutral_ext[0];
     if ((profile && !neutral) || wave_profile) {
       FitModel pm = held_model(es);
-      std::vector<std::vector<double>> origins = {base.theta};
+      std::vector<std::vector<double>> origins = {origin};
       if (bisect) origins.push_back(shifted_origin(es));
       const FitResult pr = fit(P, pm, origins, Span::kFeatures, 0, o.max_evals_profile);
       *evals += pr.evals;
@@ -214,59 +268,14 @@ Starts candidate_starts(const CandidateInputs& in, engine::ExtensionKind kind,
         th = pr.theta;
         profiles.push_back({es[0], pr.sse, pr.theta, {es.begin() + 1, es.end()}});
       }
-      // Viscous friction and drive damping both add force in proportion to the slip
-      // velocity. A base without them absorbs that force by a raised F_C and a v_s far
-      // below its true value (hidden sigma2 = 60 N s/m: v_s 7.2e-5 for 3.2e-4 m/s), and
-      // the feature objective has a false minimum there: refitted from the base optimum
-      // with the size held, v_s runs to its lower bound. So these also get a second
-      // profile start with v_s held at its nominal value (the spec's start, Table 1) and
-      // the other base parameters refitted; phase B then picks the better start by the
-      // time-domain objective.
-      std::size_t iv = nb;
-      for (std::size_t j = 0; j < nb; ++j)
-        if (base.model.specs[j].name == "v_s") iv = j;
-      if (slip_force && iv < nb) {
-        FitModel hm = pm;
-        engine::set_parameter(hm.base, "v_s", base.model.specs[iv].init);
-        hm.specs.erase(hm.specs.begin() + static_cast<std::ptrdiff_t>(iv));
-        std::vector<double> h0 = base.theta;
-        h0.erase(h0.begin() + static_cast<std::ptrdiff_t>(iv));
-        const FitResult hr = fit(P, hm, {h0}, Span::kFeatures, 0, o.max_evals_profile);
-        *evals += hr.evals;
-        if (hr.ok) {
-          std::vector<double> th2 = hr.theta;
-          th2.insert(th2.begin() + static_cast<std::ptrdiff_t>(iv), base.model.specs[iv].init);
-          th2.insert(th2.end(), es.begin(), es.end());
-          s.all.push_back(th2);
-          s.held.push_back(th2);
-        }
-      }
+      if (slip_force) held_vs_start(in, pm, origin, es, evals, &s);
     }
     th.insert(th.end(), es.begin(), es.end());
     s.all.push_back(th);
   }
-  if (bisect) {
-    // The size grid is coarse (20, 60, 150; dwell A 0.3, 1) and the profile's minimum narrow
-    // on long still stages: refine it by bisection between the best size and its better
-    // neighbour, the other parameters (dwell_tau) held at the best point's.
-    for (int step = 0; step < 3; ++step) {
-      const double size = next_profile_size(profiles);
-      if (!(size > 0)) break;
-      const ProfilePoint best = best_profile(profiles);  // a copy: profiles grows below
-      std::vector<double> es = {size};
-      es.insert(es.end(), best.rest.begin(), best.rest.end());
-      const FitResult pr = fit(P, held_model(es), {best.theta, shifted_origin(es)},
-                               Span::kFeatures, 0, o.max_evals_profile);
-      *evals += pr.evals;
-      if (!pr.ok) break;
-      profiles.push_back({size, pr.sse, pr.theta, best.rest});
-      std::vector<double> th = pr.theta;
-      th.insert(th.end(), es.begin(), es.end());
-      s.all.push_back(th);
-    }
-  }
+  if (bisect) bisect_profile(in, held_model, shifted_origin, &profiles, evals, &s);
   if (kind == engine::ExtensionKind::kSensorDynamics)  // held-v_s profile starts (diagnose_sensor.h)
-    sensor_profile_starts(P, base.model, base.theta, o, in.scales, &s.all, &s.held, evals);
+    sensor_profile_starts(P, base.model, origin, o, in.scales, &s.all, &s.held, evals);
   return s;
 }
 

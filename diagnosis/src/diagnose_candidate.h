@@ -41,6 +41,9 @@ struct CandidateInputs {
   const SineScan& scan;       ///< its residual scan against x (waviness starts)
   const DiagnoseOptions& o;
   RecordScales scales;        ///< the record's scales (diagnose_scale.h)
+  /// Where the candidates' starts begin (base.model's parameters): the base's first optimum with
+  /// its secondary parameters at their held values (BaseFit::origin); empty: base.theta.
+  std::vector<double> origin;
   double F_C0 = 0;            ///< data-driven F_C level (data_driven_start) [N]
   double still_period = 0;    ///< mean measured still-stage period [s] (dwell starts)
   double v_slip = 0;          ///< the base's still-stage slip velocity [m/s] (slip_velocity)

@@ -179,23 +179,10 @@ std::string_view evidence_view(std::string_view cause) noexcept {
   return "";
 }
 
-nlohmann::json to_json(const Diagnosis& d) {
-  nlohmann::json j;
-  j["dataset"] = d.dataset;
-  j["scoring"] = d.scoring;
-  j["verdict"] = d.adequacy.verdict;
-  j["readings"] = readings_json(d);
-  j["adequacy"] = adequacy_json(d.adequacy);
-  j["statistics"] = comparisons_json(d.statistics);
-  j["models"] = {{"base", calibrated_json(d.base_fit)}, {"extended", calibrated_json(d.extended_fit)}};
-  j["base_model"] = to_string(d.base_model);
-  j["base_params"] = params_json(d.base_params);
-  j["cause"] = d.cause;
-  j["best_candidate"] = d.best_candidate;
-  j["rmse_base_heldout"] = common::json_number(d.rmse_base_heldout);
-  j["rmse_extended_heldout"] = common::json_number(d.rmse_extended_heldout);
-  j["gain"] = common::json_number(d.gain);
-  auto& cands = j["candidates"] = nlohmann::json::array();
+namespace {
+
+nlohmann::json candidates_json(const Diagnosis& d) {
+  nlohmann::json cands = nlohmann::json::array();
   for (const auto& c : d.candidates)
     cands.push_back({{"id", to_string(c.kind)},
                      {"status", c.status},
@@ -215,6 +202,10 @@ nlohmann::json to_json(const Diagnosis& d) {
                      {"score_fit", common::json_number(c.score_fit)},
                      {"score_heldout", common::json_number(c.score_heldout)},
                      {"evaluations", c.evals}});
+  return cands;
+}
+
+nlohmann::json evidence_json(const Diagnosis& d) {
   const Evidence& e = d.evidence;
   nlohmann::json lv = nlohmann::json::array();
   for (std::size_t i = 0; i < e.stage_mean_residual.size(); ++i)
@@ -222,7 +213,7 @@ nlohmann::json to_json(const Diagnosis& d) {
                   {"mean_residual", common::json_number(e.stage_mean_residual[i])},
                   {"mean_residual_extended",
                    common::json_number(i < e.stage_mean_residual_extended.size() ? e.stage_mean_residual_extended[i] : NAN)}});
-  j["evidence"] = {{"residual_rms", common::json_number(e.residual_rms)},
+  return {{"residual_rms", common::json_number(e.residual_rms)},
                    {"lag1_autocorrelation", common::json_number(e.rho)},
                    {"n_fit", common::json_number(e.n)},
                    {"n_effective", common::json_number(e.n_eff)},
@@ -243,7 +234,10 @@ nlohmann::json to_json(const Diagnosis& d) {
                    {"x_spectrum", spectrum_json(e.x_spectrum, "wavelength")},
                    {"t_spectrum", spectrum_json(e.t_spectrum, "period")},
                    {"per_stage", stages_json(e.stages, d)}};
-  auto& cal = j["calibrations"] = nlohmann::json::array();
+}
+
+nlohmann::json calibrations_json(const Diagnosis& d) {
+  nlohmann::json cal = nlohmann::json::array();
   for (const auto& c : d.calibrations) {
     nlohmann::json runs = nlohmann::json::object();
     for (std::size_t k = 0; k < c.rmse_run.size(); ++k) runs[d.run_names[k]] = common::json_number(c.rmse_run[k]);
@@ -264,6 +258,10 @@ nlohmann::json to_json(const Diagnosis& d) {
                                  {"condition", common::json_number(c.condition)},
                                  {"weakest", c.weakest}}}});
   }
+  return cal;
+}
+
+nlohmann::json heldout_runs_json(const Diagnosis& d) {
   nlohmann::json folds = nlohmann::json::array();
   for (const auto& h : d.run_holdouts)
     folds.push_back({{"run", h.run},
@@ -281,15 +279,37 @@ nlohmann::json to_json(const Diagnosis& d) {
                      {"drop_error", common::json_number(h.drop_error)},
                      {"rate_error", common::json_number(h.rate_error)},
                      {"reproduced", h.reproduced}});
-  if (d.run_holdouts.empty())
-    j["heldout_runs"] = nullptr;
-  else
-    j["heldout_runs"] = {{"rmse_base", common::json_number(d.rmse_base_heldout_runs)},
+  if (d.run_holdouts.empty()) return nullptr;
+  return {{"rmse_base", common::json_number(d.rmse_base_heldout_runs)},
                          {"rmse_extended", common::json_number(d.rmse_extended_heldout_runs)},
                          {"gain", common::json_number(d.gain_heldout_runs)},
                          {"score_base", common::json_number(d.score_base_heldout_runs)},
                          {"score_extended", common::json_number(d.score_extended_heldout_runs)},
                          {"folds", folds}};
+}
+
+}  // namespace
+
+nlohmann::json to_json(const Diagnosis& d) {
+  nlohmann::json j;
+  j["dataset"] = d.dataset;
+  j["scoring"] = d.scoring;
+  j["verdict"] = d.adequacy.verdict;
+  j["readings"] = readings_json(d);
+  j["adequacy"] = adequacy_json(d.adequacy);
+  j["statistics"] = comparisons_json(d.statistics);
+  j["models"] = {{"base", calibrated_json(d.base_fit)}, {"extended", calibrated_json(d.extended_fit)}};
+  j["base_model"] = to_string(d.base_model);
+  j["base_params"] = params_json(d.base_params);
+  j["cause"] = d.cause;
+  j["best_candidate"] = d.best_candidate;
+  j["rmse_base_heldout"] = common::json_number(d.rmse_base_heldout);
+  j["rmse_extended_heldout"] = common::json_number(d.rmse_extended_heldout);
+  j["gain"] = common::json_number(d.gain);
+  j["candidates"] = candidates_json(d);
+  j["evidence"] = evidence_json(d);
+  j["calibrations"] = calibrations_json(d);
+  j["heldout_runs"] = heldout_runs_json(d);
   const auto& o = d.options;
   j["method"] = {{"scoring", d.scoring},
                  {"whole_run_holdout", o.whole_run_holdout},

@@ -52,42 +52,34 @@ std::vector<double> window_samples(const std::vector<double>& y, double dt, doub
   return {y.begin() + static_cast<std::ptrdiff_t>(a), y.begin() + static_cast<std::ptrdiff_t>(std::max(a, b))};
 }
 
-RecordInfo analyse_record(const measured::MeasuredRun& run, double holdout_fraction) {
-  if (run.t.size() < 16) throw std::invalid_argument("run " + run.name + ": too few samples");
-  RecordInfo r;
-  r.name = run.name;
-  const auto& c = run.conditions;
-  std::vector<double> raw = uniform(run.t, run.Fd, &r.dt);
-  r.noise = estimate_noise(raw);
-  std::vector<std::size_t> flagged;
-  r.y = despike(raw, r.noise.sigma, &flagged);
-  r.spikes = flagged.size();
-  raw.clear();
-  r.level = median_of(r.y);
-  // Initial state.
+namespace {
+
+/// The preload, whether the record starts at rest, and whether the body is stuck at the start.
+void initial_state(const measured::MeasuredConditions& c, RecordInfo& r) {
   const std::size_t n0 = std::clamp<std::size_t>(static_cast<std::size_t>(kPreloadSpan / r.dt), 5, r.y.size());
   r.preload = median_of({r.y.begin(), r.y.begin() + static_cast<std::ptrdiff_t>(n0)});
   r.from_rest = std::fabs(r.preload) < kRestFraction * std::fabs(r.level);
-  {
-    // Slope over the first 2 % of a natural period... at least 20 samples, at most 0.2 s.
-    const std::size_t n1 = std::clamp<std::size_t>(static_cast<std::size_t>(0.2 / r.dt), 20, r.y.size());
-    double sx = 0, sy = 0, sxx = 0, sxy = 0;
-    for (std::size_t i = 0; i < n1; ++i) {
-      const double x = static_cast<double>(i) * r.dt;
-      sx += x, sy += r.y[i], sxx += x * x, sxy += x * r.y[i];
-    }
-    const double n = static_cast<double>(n1);
-    r.start_slope = (n * sxy - sx * sy) / (n * sxx - sx * sx);
-    const double rise = c.kd * c.vd;
-    r.stuck_at_start = std::fabs(r.start_slope - rise) < 0.5 * rise;
+  // The least-squares slope of the first 0.2 s (at least 20 samples).
+  const std::size_t n1 = std::clamp<std::size_t>(static_cast<std::size_t>(0.2 / r.dt), 20, r.y.size());
+  double sx = 0, sy = 0, sxx = 0, sxy = 0;
+  for (std::size_t i = 0; i < n1; ++i) {
+    const double x = static_cast<double>(i) * r.dt;
+    sx += x, sy += r.y[i], sxx += x * x, sxy += x * r.y[i];
   }
-  // Stages and their statistics.
+  const double n = static_cast<double>(n1);
+  r.start_slope = (n * sxy - sx * sy) / (n * sxx - sx * sx);
+  const double rise = c.kd * c.vd;
+  r.stuck_at_start = std::fabs(r.start_slope - rise) < 0.5 * rise;
+}
+
+/// Every stage's statistics: the whole stage, its fitted and its held-out part, with one spec.
+void stage_statistics(const measured::MeasuredConditions& c, double holdout_fraction, RecordInfo& r) {
   const int smooth = std::max(1, static_cast<int>(std::lround(natural_period(c) / 8 / r.dt)));
   // The smoothed noise: the AR(1) model's, raised by what the smoothed signal shows beyond it
   // (noise at scales above two samples), at most twice (an oscillation near the smoothing scale
   // shows as noise there).
   const double ar1 = averaged_noise(r.noise.sigma, r.noise.rho, smooth);
-  const double noise_sd = ar1 * std::clamp(smoothed_noise(r.y, smooth) / ar1, 1.0, 2.0);
+  const double noise_sd = ar1 > 0 ? ar1 * std::clamp(smoothed_noise(r.y, smooth) / ar1, 1.0, 2.0) : 0.0;
   const int lag = std::max(1, static_cast<int>(std::lround(natural_period(c) / r.dt)));
   std::vector<std::pair<double, double>> stages;
   if (c.t_on > 0) stages.emplace_back(0.0, std::min(c.t_on, c.duration));
@@ -103,13 +95,14 @@ RecordInfo analyse_record(const measured::MeasuredRun& run, double holdout_fract
     spec.noise_sd = noise_sd;
     spec.threshold = drop_threshold(noise_sd);
     spec.lag = lag;
+    spec.level = r.level;
     // First pass over the whole stage: the band edge and the detrending window from its slips.
     SlipStats whole = slip_stats(window_samples(r.y, r.dt, s, e), spec);
     if (whole.regime != Regime::kCreep && whole.interval_median > 0) {
       spec.f_lo = 0.25 / whole.interval_median;
       spec.detrend_window = 4.0 * whole.interval_median;
+      whole = slip_stats(window_samples(r.y, r.dt, s, e), spec);
     }
-    if (spec.f_lo > 0) whole = slip_stats(window_samples(r.y, r.dt, s, e), spec);
     r.whole.push_back(whole);
     const double split = s + (1.0 - holdout_fraction) * (e - s);
     for (const bool held : {false, true}) {
@@ -123,7 +116,10 @@ RecordInfo analyse_record(const measured::MeasuredRun& run, double holdout_fract
       r.windows.push_back(w);
     }
   }
-  // Scoring.
+}
+
+/// Phase-locked or not, and why.
+void choose_scoring(RecordInfo& r) {
   const SlipStats& first = r.windows.front().stats;
   if (!r.from_rest) {
     r.phase_locked = false;
@@ -140,6 +136,24 @@ RecordInfo analyse_record(const measured::MeasuredRun& run, double holdout_fract
                 : fmt("starts at rest, regular slips (coefficient of variation %.2f <= %.2f)",
                       first.interval_cv, kRegularCv);
   }
+}
+
+}  // namespace
+
+RecordInfo analyse_record(const measured::MeasuredRun& run, double holdout_fraction) {
+  if (run.t.size() < 16) throw std::invalid_argument("run " + run.name + ": too few samples");
+  RecordInfo r;
+  r.name = run.name;
+  const std::vector<double> raw = uniform(run.t, run.Fd, &r.dt);
+  r.noise = estimate_noise(raw);
+  std::vector<std::size_t> flagged;
+  r.y = despike(raw, r.noise.sigma, &flagged);
+  r.spikes = flagged.size();
+  r.level = median_of(r.y);
+  initial_state(run.conditions, r);
+  stage_statistics(run.conditions, holdout_fraction, r);
+  if (r.windows.empty()) throw std::invalid_argument("run " + run.name + ": no stage with samples");
+  choose_scoring(r);
   return r;
 }
 

@@ -162,19 +162,12 @@ std::string summary_text(const Diagnosis& d) {
   return s.str();
 }
 
-std::vector<std::string> write_report(const Diagnosis& d, const std::filesystem::path& dir) {
-  namespace fs = std::filesystem;
-  std::vector<std::string> files;
-  fs::create_directories(dir);
-  {
-    std::ofstream j(dir / "diagnosis.json");
-    j << to_json(d).dump(2) << "\n";
-    if (!j) throw std::runtime_error("cannot write " + (dir / "diagnosis.json").string());
-    files.push_back((dir / "diagnosis.json").string());
-  }
+namespace {
+
+/// Plot data of every run (t, measured, base, extended, residuals) and its panel in the script.
+void run_plots(const Diagnosis& d, const std::filesystem::path& dir, std::ostream& gp,
+               std::vector<std::string>& files) {
   // Plot data: one file per run (t, measured, base, extended, residual base, residual ext).
-  std::ofstream gp(dir / "plots.gp");
-  gp << "set terminal pngcairo size 1400,800\nset grid\nset key outside top center horizontal\n";
   const std::string ext_label = d.cause != "none" ? d.cause : (d.best_candidate + " (not significant)");
   for (std::size_t k = 0; k < d.series.size(); ++k) {
     const RunSeries& s = d.series[k];
@@ -193,6 +186,12 @@ std::vector<std::string> write_report(const Diagnosis& d, const std::filesystem:
        << "set ylabel 'residual [N]'\nset xlabel 't [s]'\nplot '" << dat << "' u 1:5 w l lc 'blue' t 'base', '' u 1:6 w l lc 'red' t 'extended'\n"
        << "unset multiplot\nunset xlabel\n";
   }
+}
+
+/// The evidence tables and evidence.png's six panels, the named cause's marked.
+void evidence_plots(const Diagnosis& d, const std::filesystem::path& dir, std::ostream& gp,
+                    std::vector<std::string>& files) {
+  const std::string ext_label = d.cause != "none" ? d.cause : (d.best_candidate + " (not significant)");
   // Evidence: the base's and the extended model's residuals against what each cause acts on.
   auto table = [&](const std::string& name, const std::vector<std::vector<double>>& cols,
                    const char* header) {
@@ -256,6 +255,24 @@ std::vector<std::string> write_report(const Diagnosis& d, const std::filesystem:
        << p.using_x << ":3 w " << p.style << " lc 'red' t 'extended'\n";
   }
   gp << "unset multiplot\nunset title\nunset logscale x\n";
+}
+
+}  // namespace
+
+std::vector<std::string> write_report(const Diagnosis& d, const std::filesystem::path& dir) {
+  namespace fs = std::filesystem;
+  std::vector<std::string> files;
+  fs::create_directories(dir);
+  {
+    std::ofstream j(dir / "diagnosis.json");
+    j << to_json(d).dump(2) << "\n";
+    if (!j) throw std::runtime_error("cannot write " + (dir / "diagnosis.json").string());
+    files.push_back((dir / "diagnosis.json").string());
+  }
+  std::ofstream gp(dir / "plots.gp");
+  gp << "set terminal pngcairo size 1400,800\nset grid\nset key outside top center horizontal\n";
+  run_plots(d, dir, gp, files);
+  evidence_plots(d, dir, gp, files);
   gp.close();
   files.push_back((dir / "plots.gp").string());
   common::GnuplotCall call;

@@ -353,7 +353,7 @@ void stats_residuals(const SlipStats& m, const SlipStats& s, const StatsSpec& sp
     else r->push_back(have_m == have_s ? 0.0 : kMissingStat);
   };
   // Level: 10 % of the measured mean is one unit (1 % of the spread when the mean is ~0).
-  const double scale = std::max(0.1 * std::fabs(m.mean), 0.01 * (m.q95 - m.q05));
+  const double scale = std::max({0.1 * std::fabs(m.mean), 0.1 * std::fabs(spec.level), 0.01 * (m.q95 - m.q05)});
   r->push_back(scale > 0 ? (s.mean - m.mean) / scale : 0.0);
   const double sim_spread = std::hypot(s.spread, spec.noise_sd);
   push(m.spread > 0, sim_spread > 0, log_ratio(sim_spread, m.spread, 1.3));

@@ -31,9 +31,12 @@ struct HiddenCase {
   bool small = false;   ///< too small to see: "none" or the right cause, never a wrong one
   double noise = 0.03;  ///< [N]
   double noise_rho = 0; ///< AR(1) coefficient [-]
-  /// Runs in default CI; the others run only with STICKSLIP_DIAGNOSE_SUITE (docs/diagnose.md
-  /// "Status on main").
+  /// Runs in default CI, on one seed, against its rivals only (ci_candidates: the effect itself,
+  /// or for a null, and the candidates that competed with it most on the suite); every case runs
+  /// against the whole catalogue on two seeds with STICKSLIP_DIAG_LONG=1 (or
+  /// STICKSLIP_DIAGNOSE_SUITE; docs/diagnose.md "Tests").
   bool in_ci = false;
+  std::vector<engine::ExtensionKind> ci_candidates = {};
   /// Further parameters of the hidden effect (engine names, SI), e.g. {"load_phi", 1.0}.
   std::vector<std::pair<std::string, double>> more = {};
   /// The candidate's reported parameter that is judged, against judged_value within rel_tol;

@@ -93,6 +93,10 @@ struct StatsSpec {
   double f_lo = 0;               ///< lower edge of the spectral band [Hz]
   double detrend_window = 0;     ///< local spread's moving-average window [s]; 0: whole signal
   double noise_sd = 0;           ///< sd of the smoothed noise [N] (measured; see stats_residuals)
+  /// The run's force level [N] (the median of its record): a mean level is judged relative to
+  /// the larger of it and the window's own mean, so that a stage whose mean nearly vanishes (a
+  /// vibrating base) is not judged in per cent of almost nothing.
+  double level = 0;
 };
 
 struct SlipStats {
@@ -113,7 +117,8 @@ struct SlipStats {
 SlipStats slip_stats(const std::vector<double>& y, const StatsSpec& spec);
 
 /// Tolerance-scaled residuals simulated - measured, appended to *r (a fixed count per call:
-/// kStatsResiduals), so that 1 is a miss at the tolerance: the mean by 10 % of the measured mean,
+/// kStatsResiduals), so that 1 is a miss at the tolerance: the mean by 10 % of the measured mean
+/// (or of spec.level, when larger),
 /// the drop size, drop rate, dominant frequency and local spread by a factor 1.3 (log ratio), the
 /// ramp slope and fall fraction by 0.1, the creep ratio by 0.2. A statistic that one signal has and
 /// the other lacks (no drops in one) costs kMissingStat. The simulated spread has the measured

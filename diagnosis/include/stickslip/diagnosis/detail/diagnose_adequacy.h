@@ -8,7 +8,8 @@
 // constant: the statistics score of the held-out windows). It is inadequate, and no cause is
 // named, when it predicts worse than either, or when in some stage window with a clear regime
 // (clear_regime) it shows another regime, drops off by more than kAdequateFactor, or a mean level
-// off by more than kAdequateMean; `missing` says which, with the numbers.
+// off by more than kAdequateMean of the larger of the window's mean and the run's level;
+// `missing` says which, with the numbers.
 
 #include <string>
 #include <vector>

@@ -72,6 +72,9 @@ struct Problem {
 /// plain parameter name.
 std::optional<std::pair<std::string, std::string>> ratio_parts(const std::string& name);
 
+/// The stages cut to [0, t_end] [s].
+std::vector<engine::Stage> stages_until(const std::vector<engine::Stage>& stages, double t_end);
+
 /// One scalar parameter in the unit box: u in [0, 1] maps to [lo, hi] linearly or in log.
 struct ParamSpec {
   std::string name;  ///< engine parameter name, or a ratio "a/b" (fits a / b; applied after b)
