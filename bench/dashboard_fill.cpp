@@ -62,7 +62,10 @@ int main(int argc, char** argv) {
       const double va = r.va_over_vd.value_or(0.0);
       const double kd = p.value("k_d").value_or(11700.0);
       const double scatter = 0.02 * std::sin(12.9898 * static_cast<double>(i));
-      const double m = p.model == "lugre" ? 1.0 : p.model == "dahl" ? 0.8 : p.model == "karnopp" ? 1.2 : 0.9;
+      // A level per model (its position in the registry), so the models' curves differ.
+      double m = 1.0;
+      for (const auto& t : stickslip::engine::all_model_traits())
+        if (p.model == t.info->name) m = 0.8 + 0.15 * static_cast<double>(t.kind);
       r.steps = 100000;
       r.wall_time_s = 0.02;
       r.t_end = 4.0;

@@ -39,6 +39,9 @@ using namespace stickslip::engine;
 
 constexpr double kTraceRate = 2000.0;
 
+// Switching models have a hybrid form: their reference is rk4_event (located switches).
+bool switching(ModelKind m) { return model_traits(m).info->model_class == ModelClass::kSwitching; }
+
 struct Case {
   ModelKind model;
   double v_a;
@@ -103,36 +106,38 @@ void save_ref(const std::string& path, const SimResult& r) {
             static_cast<std::streamsize>(n * sizeof(TraceSample)));
 }
 
-}  // namespace
 
-int main(int argc, char** argv) {
+struct Options {
   bool quick = false;
   std::string only, cache_dir;
   int reps = 1;
   bool rk4_rows = true;
   std::vector<double> rtols = {1e-4, 1e-5, 1e-6, 1e-7, 1e-8};
   double dt_max = 0.0;  // 0: the IntegratorOptions default
-  CLI::App app{"Work-precision table of the engine's integrators"};
-  app.add_flag("--quick", quick, "2 s + 2 s runs, reference dt = 5e-7");
-  app.add_option("--only", only, "run only this model (and v_a in mm/s), e.g. lugre:4")
+  double stage_dur() const { return quick ? 2.0 : 10.0; }
+  double ref_dt() const { return quick ? 5e-7 : 1e-7; }
+};
+
+void add_options(CLI::App& app, Options& o) {
+  app.add_flag("--quick", o.quick, "2 s + 2 s runs, reference dt = 5e-7");
+  app.add_option("--only", o.only, "run only this model (and v_a in mm/s), e.g. lugre:4")
       ->type_name("MODEL[:V_A_MM_S]");
-  app.add_option("--ref-cache", cache_dir, "store/load the reference traces in DIR")
+  app.add_option("--ref-cache", o.cache_dir, "store/load the reference traces in DIR")
       ->type_name("DIR");
-  app.add_option("--reps", reps, "time each run N times and report the fastest")->type_name("N");
-  app.add_flag("!--no-rk4", rk4_rows, "skip the fixed-step RK4 rows (adaptive only)");
-  app.add_option("--rtols", rtols, "rtol values of the adaptive rows (atol = 10 rtol [N])")
+  app.add_option("--reps", o.reps, "time each run N times and report the fastest")
+      ->type_name("N");
+  app.add_flag("!--no-rk4", o.rk4_rows, "skip the fixed-step RK4 rows (adaptive only)");
+  app.add_option("--rtols", o.rtols, "rtol values of the adaptive rows (atol = 10 rtol [N])")
       ->delimiter(',')
       ->type_name("A,B,...");
-  app.add_option("--dt-max", dt_max, "largest adaptive step [s] (default: IntegratorOptions')")
+  app.add_option("--dt-max", o.dt_max, "largest adaptive step [s] (default: IntegratorOptions')")
       ->type_name("S");
-  CLI11_PARSE(app, argc, argv);
-  reps = std::max(1, reps);
-  const double stage_dur = quick ? 2.0 : 10.0;
-  const double ref_dt = quick ? 5e-7 : 1e-7;
+}
 
+/// Every registered model at v_a = 0 and 4 mm/s, or the one --only names.
+std::vector<Case> select_cases(const std::string& only) {
   std::vector<Case> cases;
-  for (ModelKind m : {model_kind<Dahl>, model_kind<Karnopp>, model_kind<ResetIntegrator>,
-                      model_kind<LuGre>})
+  for (ModelKind m : all_models())
     for (double v_a : {0.0, 4e-3}) {
       if (!only.empty()) {
         const std::string name = to_string(m);
@@ -143,93 +148,113 @@ int main(int argc, char** argv) {
       }
       cases.push_back({m, v_a});
     }
-  if (cases.empty()) {
-    std::fprintf(stderr, "--only %s: no such model/v_a (models: dahl, karnopp, "
-                 "reset_integrator, lugre; v_a: 0 or 4)\n", only.c_str());
-    return 2;
-  }
+  return cases;
+}
 
-  // References, in parallel over the cases.
-  std::vector<SimResult> refs(cases.size());
-  std::vector<double> ref_wall(cases.size(), 0.0);
+/// The fine fixed-step references, in parallel over the cases (from the cache when given).
+void compute_references(const Options& o, const std::vector<Case>& cases,
+                        std::vector<SimResult>& refs, std::vector<double>& ref_wall) {
+  refs.assign(cases.size(), SimResult{});
+  ref_wall.assign(cases.size(), 0.0);
   std::fprintf(stderr, "computing %zu references at dt = %g on %d threads...\n", cases.size(),
-               ref_dt, omp_get_max_threads());
+               o.ref_dt(), omp_get_max_threads());
 #pragma omp parallel for schedule(dynamic, 1)
   for (int i = 0; i < static_cast<int>(cases.size()); ++i) {
-    SimConfig cfg = make_cfg(cases[i], stage_dur);
-    const bool event = cases[i].model == model_kind<Karnopp> ||
-                       cases[i].model == model_kind<ResetIntegrator>;
+    SimConfig cfg = make_cfg(cases[i], o.stage_dur());
+    const bool event = switching(cases[i].model);
     cfg.integrator.kind = event ? IntegratorKind::kRk4Event : IntegratorKind::kRk4;
-    cfg.integrator.dt = ref_dt;
-    const std::string path =
-        cache_dir.empty() ? std::string() : cache_path(cache_dir, cases[i], stage_dur, ref_dt);
+    cfg.integrator.dt = o.ref_dt();
+    const std::string path = o.cache_dir.empty()
+                                 ? std::string()
+                                 : cache_path(o.cache_dir, cases[i], o.stage_dur(), o.ref_dt());
     if (!path.empty() && load_ref(path, &refs[i])) continue;
     const auto t0 = std::chrono::steady_clock::now();
     refs[i] = simulate(cfg);
     ref_wall[i] = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     if (!path.empty() && refs[i].status == RunStatus::kOk) save_ref(path, refs[i]);
   }
+}
+
+void print_row(const Case& c, const char* integ, const std::string& setting, const SimResult& r,
+               double wall, double cpu, double err) {
+  char errbuf[32];
+  if (std::isnan(err))
+    std::snprintf(errbuf, sizeof errbuf, "-");
+  else
+    std::snprintf(errbuf, sizeof errbuf, "%.3e", err);
+  std::printf("%-17s %8.1f %-10s %-12s %11zu %9zu %9zu %9.3f %9.3f %16s %s\n",
+              to_string(c.model), c.v_a * 1e3, integ, setting.c_str(), r.steps, r.rejected,
+              r.switches, wall, cpu, errbuf, to_string(r.status));
+  std::fflush(stdout);
+}
+
+/// Times one single-threaded run of cfg (fastest of reps) and prints its row against ref.
+void timed_row(const Case& c, const char* integ, const char* knob, double value,
+               const SimConfig& cfg, const SimResult& ref, int reps) {
+  SimResult r;
+  double wall = 1e300, cpu = 1e300;
+  for (int k = 0; k < reps; ++k) {
+    const double c0 = thread_cpu_seconds();
+    const auto t0 = std::chrono::steady_clock::now();
+    r = simulate(cfg);
+    wall = std::min(wall,
+                    std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+    cpu = std::min(cpu, thread_cpu_seconds() - c0);
+  }
+  char s[32];
+  std::snprintf(s, sizeof s, "%s=%g", knob, value);
+  print_row(c, integ, s, r, wall, cpu, rms_error(ref, r));
+}
+
+/// The reference row, the rk4 rows and the adaptive rows of one case.
+void case_rows(const Options& o, const Case& c, const SimResult& ref, double ref_wall) {
+  {
+    char s[32];
+    std::snprintf(s, sizeof s, "dt=%g", o.ref_dt());
+    const bool event = switching(c.model);
+    print_row(c, event ? "ref_rk4ev" : "ref_rk4", s, ref, ref_wall, std::nan(""), std::nan(""));
+  }
+  for (double dt : {4e-6, 2e-6, 1e-6}) {
+    if (!o.rk4_rows) break;
+    SimConfig cfg = make_cfg(c, o.stage_dur());
+    cfg.integrator.kind = IntegratorKind::kRk4;
+    cfg.integrator.dt = dt;
+    timed_row(c, "rk4", "dt", dt, cfg, ref, o.reps);
+  }
+  for (double rtol : o.rtols) {
+    SimConfig cfg = make_cfg(c, o.stage_dur());
+    cfg.integrator.kind = IntegratorKind::kAdaptive;
+    cfg.integrator.rtol = rtol;
+    cfg.integrator.atol = rtol * 10.0;
+    if (o.dt_max > 0) cfg.integrator.dt_max = o.dt_max;
+    timed_row(c, "adaptive", "rtol", rtol, cfg, ref, o.reps);
+  }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options o;
+  CLI::App app{"Work-precision table of the engine's integrators"};
+  add_options(app, o);
+  CLI11_PARSE(app, argc, argv);
+  o.reps = std::max(1, o.reps);
+
+  const std::vector<Case> cases = select_cases(o.only);
+  if (cases.empty()) {
+    std::fprintf(stderr, "--only %s: no such model/v_a (models: %s; v_a: 0 or 4)\n",
+                 o.only.c_str(), model_names().c_str());
+    return 2;
+  }
+  std::vector<SimResult> refs;
+  std::vector<double> ref_wall;
+  compute_references(o, cases, refs, ref_wall);
 
   std::printf("# work-precision: %s runs (%g s + %g s), reference dt = %g, trace %g Hz\n",
-              quick ? "quick" : "full", stage_dur, stage_dur, ref_dt, kTraceRate);
+              o.quick ? "quick" : "full", o.stage_dur(), o.stage_dur(), o.ref_dt(), kTraceRate);
   std::printf("%-17s %8s %-10s %-12s %11s %9s %9s %9s %9s %16s %s\n", "model", "v_a[mm/s]",
               "integrator", "setting", "steps", "rejected", "switches", "wall[s]", "cpu[s]",
               "F_d_RMS_err[N]", "status");
-
-  auto row = [](const Case& c, const char* integ, const std::string& setting,
-                const SimResult& r, double wall, double cpu, double err) {
-    char errbuf[32];
-    if (std::isnan(err))
-      std::snprintf(errbuf, sizeof errbuf, "-");
-    else
-      std::snprintf(errbuf, sizeof errbuf, "%.3e", err);
-    std::printf("%-17s %8.1f %-10s %-12s %11zu %9zu %9zu %9.3f %9.3f %16s %s\n",
-                to_string(c.model), c.v_a * 1e3, integ, setting.c_str(), r.steps, r.rejected,
-                r.switches, wall, cpu, errbuf, to_string(r.status));
-    std::fflush(stdout);
-  };
-  // Times one single-threaded run of cfg and prints its row against the reference.
-  auto timed_row = [&row, reps](const Case& c, const char* integ, const char* knob,
-                                double value, const SimConfig& cfg, const SimResult& ref) {
-    SimResult r;
-    double wall = 1e300, cpu = 1e300;
-    for (int k = 0; k < reps; ++k) {
-      const double c0 = thread_cpu_seconds();
-      const auto t0 = std::chrono::steady_clock::now();
-      r = simulate(cfg);
-      wall = std::min(
-          wall, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
-      cpu = std::min(cpu, thread_cpu_seconds() - c0);
-    }
-    char s[32];
-    std::snprintf(s, sizeof s, "%s=%g", knob, value);
-    row(c, integ, s, r, wall, cpu, rms_error(ref, r));
-  };
-
-  for (std::size_t i = 0; i < cases.size(); ++i) {
-    const Case& c = cases[i];
-    const SimResult& ref = refs[i];
-    {
-      char s[32];
-      std::snprintf(s, sizeof s, "dt=%g", ref_dt);
-      const bool event = c.model == model_kind<Karnopp> || c.model == model_kind<ResetIntegrator>;
-      row(c, event ? "ref_rk4ev" : "ref_rk4", s, ref, ref_wall[i], std::nan(""), std::nan(""));
-    }
-    for (double dt : {4e-6, 2e-6, 1e-6}) {
-      if (!rk4_rows) break;
-      SimConfig cfg = make_cfg(c, stage_dur);
-      cfg.integrator.kind = IntegratorKind::kRk4;
-      cfg.integrator.dt = dt;
-      timed_row(c, "rk4", "dt", dt, cfg, ref);
-    }
-    for (double rtol : rtols) {
-      SimConfig cfg = make_cfg(c, stage_dur);
-      cfg.integrator.kind = IntegratorKind::kAdaptive;
-      cfg.integrator.rtol = rtol;
-      cfg.integrator.atol = rtol * 10.0;
-      if (dt_max > 0) cfg.integrator.dt_max = dt_max;
-      timed_row(c, "adaptive", "rtol", rtol, cfg, ref);
-    }
-  }
+  for (std::size_t i = 0; i < cases.size(); ++i) case_rows(o, cases[i], refs[i], ref_wall[i]);
   return 0;
 }

@@ -5,6 +5,7 @@ set -euo pipefail
 
 PACKAGES=(
   build-essential cmake g++ pkg-config git
+  ccache                   # compiler cache: rebuilds in a fresh clone reuse earlier objects
   libeigen3-dev            # linear algebra (calibration Jacobians, covariance)
   libboost-dev             # Asio, Beast, Math, Random (header-only parts)
   nlohmann-json3-dev       # JSON
@@ -15,6 +16,7 @@ PACKAGES=(
   libcli11-dev             # command line
   libspdlog-dev            # logging
   libnlopt-cxx-dev         # derivative-free optimisation
+  openmpi-bin libopenmpi-dev # studies across machines (mpirun stickslip ..., --launcher; docs/scale.md)
   gnuplot-nox              # report plots
   python3                  # report tests: html.parser/xml.dom check of the page (stdlib only)
   curl                     # end-to-end tests drive the server with curl

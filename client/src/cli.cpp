@@ -6,7 +6,7 @@
 
 namespace stickslip::client {
 
-int run(int argc, char** argv) {
+int run(int argc, char** argv, std::shared_ptr<studies::Executor> mpi) {
   CLI::App app{"stickslip: stick-slip friction under longitudinal vibration (seed: Rybkiewicz & "
                "Leus). SI units throughout."};
   app.require_subcommand(1);
@@ -17,12 +17,12 @@ int run(int argc, char** argv) {
   add_diagnosis_command(app, exit_code);
   add_validate_command(app, exit_code);
   add_table_command(app, exit_code);
-  add_study_command(app, exit_code);
+  add_study_command(app, exit_code, mpi);
   add_store_command(app, exit_code);
   add_remote_commands(app, exit_code);
   add_map_command(app, exit_code);
   add_indices_command(app, exit_code);
-  add_report_command(app, exit_code);
+  add_report_command(app, exit_code, mpi);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {

@@ -1,4 +1,4 @@
-// `stickslip diagnose MANIFEST --out DIR`: calibrate the four models on measured data, test
+// `stickslip diagnose MANIFEST --out DIR`: calibrate the friction models on measured data, test
 // every catalogue extension, name the cause (diagnosis/include/stickslip/diagnosis/diagnose.h).
 // With --server URL the same diagnosis runs as a job on stickslipd (cmd_diagnosis_remote.cpp).
 #include <iostream>
@@ -7,6 +7,7 @@
 #include "progress_printer.h"
 #include "stickslip/client/cli.h"
 #include "stickslip/diagnosis/diagnose.h"
+#include "stickslip/engine/registry.h"
 
 namespace stickslip::client {
 namespace {
@@ -67,7 +68,8 @@ void add_diagnose_command(CLI::App& app, int& exit_code) {
       "DIR/diagnosis.json and plots); with --server, run it as a job on stickslipd");
   cmd->add_option("manifest", a->manifest, "measured-data manifest (JSON)")->required();
   cmd->add_option("--out", a->out, "output directory (with --server: written after --wait)");
-  cmd->add_option("--models", a->models, "base models to calibrate (default: every registered model)");
+  cmd->add_option("--models", a->models,
+                  "base models to calibrate (default: all, " + engine::model_names() + ")");
   cmd->add_option("--candidates", a->candidates,
                   "catalogue extensions to test (default: all eight)");
   auto* fit_rate = cmd->add_option("--fit-rate", a->opt.fit_rate, "decimated samples per second [Hz]")->capture_default_str();

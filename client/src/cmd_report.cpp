@@ -5,6 +5,7 @@
 #include <iostream>
 #include <sstream>
 
+#include "execution.h"
 #include "local_store.h"
 #include "stickslip/client/cli.h"
 #include "stickslip/reports/report.h"
@@ -21,6 +22,8 @@ struct ReportArgs {
   std::string config, out, db, date, gnuplot = "gnuplot";
   int threads = -1;
   bool quiet = false;
+  ExecutionArgs execution;
+  std::shared_ptr<studies::Executor> mpi;  ///< rank 0 of an MPI job: the MPI master
 };
 
 int make_report(const ReportArgs& a) {
@@ -48,6 +51,12 @@ int make_report(const ReportArgs& a) {
   opt.threads = a.threads;
   opt.gnuplot = a.gnuplot;
   opt.stop = &g_report_interrupted;
+  try {
+    opt.execution = make_execution(a.execution, a.mpi);
+  } catch (const std::invalid_argument& e) {
+    std::cerr << "stickslip report: " << e.what() << "\n";
+    return kBadInput;
+  }
   std::string why;
   if (!opt.IsValid(&why)) {
     std::cerr << "stickslip report: " << why << "\n";
@@ -85,8 +94,9 @@ int make_report(const ReportArgs& a) {
 
 }  // namespace
 
-void add_report_command(CLI::App& app, int& exit_code) {
+void add_report_command(CLI::App& app, int& exit_code, std::shared_ptr<studies::Executor> mpi) {
   auto a = std::make_shared<ReportArgs>();
+  a->mpi = mpi;
   CLI::App* cmd = app.add_subcommand(
       "report",
       "Run (or reuse, by spec hash) the studies of a report configuration in the local store and "
@@ -101,6 +111,7 @@ void add_report_command(CLI::App& app, int& exit_code) {
       ->check(CLI::NonNegativeNumber);
   cmd->add_option("--gnuplot", a->gnuplot, "gnuplot executable")->capture_default_str();
   cmd->add_flag("--quiet", a->quiet, "no progress output");
+  add_execution_options(cmd, a->execution);
   cmd->callback([a, &exit_code] { exit_code = guarded("report", [&] { return make_report(*a); }); });
 }
 

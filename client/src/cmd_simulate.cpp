@@ -11,16 +11,19 @@ namespace stickslip::client {
 namespace {
 
 struct SimulateArgs {
-  std::string model = "lugre";
+  std::string model = engine::to_string(engine::SimConfig{}.model);  // the engine's default
   std::string integrator = "adaptive";
   std::string trace_file;
   double trace_rate = 2000.0;
   std::string effect = "none";
   std::vector<std::string> effect_params;  // "name=value"
   std::map<std::string, std::optional<double>> values;  // parameter name -> value if given
+  std::map<std::string, std::optional<std::string>> options;  // model option -> choice if given
 };
 
-// Options that map one-to-one onto engine parameter names (flag, parameter, help).
+// Options that map one-to-one onto engine parameter names (flag, parameter, help): the drive, the
+// stages, the integrator and the metrics. The friction models' parameters and options come from
+// the registry (model_flags()).
 struct Flag {
   const char* flag;
   const char* param;
@@ -30,22 +33,11 @@ constexpr Flag kFlags[] = {
     {"--m", "m", "body mass [kg] (0.665)"},
     {"--kd", "k_d", "drive stiffness [N/m] (11700)"},
     {"--vd", "v_d", "drive velocity [m/s] (1e-3)"},
-    {"--Fz", "F_z", "external load [N] (29.4)"},
+    {"--Fz", "F_z", "external normal load [N], F_N = F_z + m g (29.4)"},
     {"--va", "v_a", "base velocity amplitude after t_on [m/s] (0)"},
     {"--f", "f", "base vibration frequency [Hz] (1500)"},
     {"--t-on", "t_on", "time the base starts vibrating [s] (10)"},
     {"--duration", "duration", "whole run [s] (20)"},
-    {"--kt", "k_t", "tangential contact stiffness [N/m] (71.318e6)"},
-    {"--kappa", "kappa", "Dahl exponent [-] (1)"},
-    {"--FC", "F_C", "Coulomb/slip friction force [N] (8.3); Karnopp's F_slip"},
-    {"--FS", "F_S", "static friction force [N] (11.1)"},
-    {"--DV", "DV", "Karnopp zero-velocity band [m/s] (1e-5)"},
-    {"--beta", "beta", "Reset Integrator damping [N s/m] (4869)"},
-    {"--s0", "s0", "Reset Integrator strain limit [m] (1.1e-7)"},
-    {"--alpha", "alpha", "Reset Integrator stiction gain [-] (0.34)"},
-    {"--ht", "h_t", "LuGre bristle damping [N s/m] (1.377e4)"},
-    {"--hv", "h_v", "LuGre viscous damping [N s/m] (0)"},
-    {"--vs", "v_s", "LuGre Stribeck velocity [m/s] (3.5e-4)"},
     {"--dt", "dt", "rk4 step / adaptive initial step [s] (1e-6)"},
     {"--rtol", "rtol", "adaptive relative tolerance [-] (1e-7)"},
     {"--atol", "atol", "adaptive absolute tolerance [N] (1e-7)"},
@@ -64,6 +56,8 @@ int run_simulate(SimulateArgs& a) {
       if (auto& v = a.values[first]) engine::set_parameter(cfg, first, *v);
     for (auto& [name, v] : a.values)
       if (v && name != "t_on" && name != "duration") engine::set_parameter(cfg, name, *v);
+    for (auto& [name, choice] : a.options)
+      if (choice) engine::set_option(cfg, name, *choice);
     apply_effect_options(a.effect, a.effect_params, cfg);
     if (!a.trace_file.empty()) {
       if (!(std::isfinite(a.trace_rate) && a.trace_rate > 0))
@@ -96,15 +90,19 @@ void add_simulate_command(CLI::App& app, int& exit_code) {
       "simulate",
       "Run one simulation (default: the seed's 10 s still base then 10 s at --va) and print a "
       "JSON summary with per-stage metrics");
-  cmd->add_option("--model", args->model, "friction model")
-      ->check(CLI::IsMember({"dahl", "karnopp", "reset_integrator", "lugre"}))
-      ->capture_default_str();
+  add_model_option(*cmd, args->model);
   cmd->add_option("--integrator", args->integrator,
                   "rk4 (seed's fixed-step ode4), rk4_event (fixed step, located switches), "
                   "adaptive (ours)")
       ->check(CLI::IsMember({"rk4", "rk4_event", "adaptive"}))
       ->capture_default_str();
   for (const Flag& f : kFlags) cmd->add_option(f.flag, args->values[f.param], f.help);
+  for (const ModelFlag& f : model_flags()) {
+    if (f.choices.empty())
+      cmd->add_option(f.names, args->values[f.target], f.help);
+    else
+      cmd->add_option(f.names, args->options[f.target], f.help)->check(CLI::IsMember(f.choices));
+  }
   add_effect_options(*cmd, args->effect, args->effect_params);
   cmd->add_option("--trace", args->trace_file, "write a decimated CSV trace t,F_d,F_f,x,v,s");
   cmd->add_option("--trace-rate", args->trace_rate, "trace samples per second [Hz]")

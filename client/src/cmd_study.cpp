@@ -6,6 +6,7 @@
 #include <optional>
 #include <sstream>
 
+#include "execution.h"
 #include "local_store.h"
 #include "stickslip/client/cli.h"
 #include "stickslip/studies/export.h"
@@ -29,6 +30,8 @@ struct RunArgs {
   int threads = 0;
   std::size_t max_runs = studies::Limits{}.max_runs;
   bool quiet = false, json_out = false;
+  ExecutionArgs execution;
+  std::shared_ptr<studies::Executor> mpi;  ///< rank 0 of an MPI job: the MPI master
 };
 
 /// Opens the store for `study run` and creates or finds the study. This command is the store's
@@ -75,6 +78,13 @@ int study_run(const RunArgs& a) {
     return kBadInput;
   }
   const studies::StudySpec& spec = *parsed.spec;
+  studies::Execution execution;
+  try {
+    execution = make_execution(a.execution, a.mpi);
+  } catch (const std::invalid_argument& e) {
+    std::cerr << "stickslip study run: " << e.what() << "\n";
+    return kBadInput;
+  }
 
   // 2. The store (open_for_run): a bad or busy store is bad input, left untouched.
   store::StudyRecord study;
@@ -92,6 +102,12 @@ int study_run(const RunArgs& a) {
   studies::RunnerOptions opt;
   opt.threads = a.threads;
   opt.stop = &g_interrupted;
+  opt.execution = execution;
+  opt.on_retry = [&a](int attempt, const std::string& why) {
+    if (!a.quiet)
+      std::cerr << "\nstickslip study run: attempt " << attempt << " lost work (" << why
+                << "); starting the job again for the missing runs\n";
+  };
   opt.spec_dir = fs::path(a.spec_file).parent_path();
   if (opt.spec_dir.empty()) opt.spec_dir = ".";
   if (!a.quiet)
@@ -210,11 +226,12 @@ int study_export(const std::string& db, const std::string& id, const std::string
 
 }  // namespace
 
-void add_study_command(CLI::App& app, int& exit_code) {
+void add_study_command(CLI::App& app, int& exit_code, std::shared_ptr<studies::Executor> mpi) {
   CLI::App* study = app.add_subcommand("study", "Run and inspect studies in a local SQLite store");
   study->require_subcommand(1);
 
   auto ra = std::make_shared<RunArgs>();
+  ra->mpi = mpi;
   CLI::App* run = study->add_subcommand(
       "run", "Create or resume a study from SPEC.json and compute its missing runs. Exit 0 when "
              "done, 2 for an invalid spec or database (nothing written), 1 on failure or "
@@ -227,7 +244,10 @@ void add_study_command(CLI::App& app, int& exit_code) {
   run->add_option("--max-runs", ra->max_runs, "largest study accepted")->capture_default_str();
   run->add_flag("--quiet", ra->quiet, "no progress output");
   run->add_flag("--json", ra->json_out, "print the summary as JSON");
+  add_execution_options(run, ra->execution);
   run->callback([ra, &exit_code] { exit_code = guarded("study run", [&] { return study_run(*ra); }); });
+
+  add_compute_command(*study, exit_code, mpi);
 
   auto db = std::make_shared<std::string>();
   auto id = std::make_shared<std::string>();

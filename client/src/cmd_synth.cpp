@@ -11,7 +11,7 @@ namespace stickslip::client {
 namespace {
 
 struct SynthArgs {
-  std::string model = "lugre";
+  std::string model = engine::to_string(engine::SimConfig{}.model);  // the engine's default
   std::vector<std::string> params;  // NAME=VALUE engine parameters
   std::string effect = "none";
   std::vector<std::string> effect_params;
@@ -74,9 +74,7 @@ void add_synth_command(CLI::App& app, int& exit_code) {
       "synth",
       "Write a synthetic measured dataset (manifest.json + one CSV per --va) from any model "
       "with any catalogue effect, at converged accuracy, with noise and an offset");
-  cmd->add_option("--model", a->model, "friction model")
-      ->check(CLI::IsMember({"dahl", "karnopp", "reset_integrator", "lugre"}))
-      ->capture_default_str();
+  add_model_option(*cmd, a->model);
   cmd->add_option("--param", a->params,
                   "engine parameter NAME=VALUE (SI; e.g. F_S=10.5, v_s=4e-4), repeatable");
   add_effect_options(*cmd, a->effect, a->effect_params);

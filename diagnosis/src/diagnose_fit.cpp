@@ -313,29 +313,21 @@ FitResult fit(const Problem& p, const FitModel& m, const std::vector<std::vector
 }
 
 std::vector<ParamSpec> base_specs(engine::ModelKind m, double F_C0, double F_S0) {
+  // The measured levels a fit starts from, kept in a plausible range.
   F_C0 = std::clamp(F_C0, 0.5, 50.0);
   F_S0 = std::clamp(std::max(F_S0, F_C0 * 1.01), 0.6, 60.0);
-  const double ratio0 = std::clamp(F_C0 / F_S0, 0.31, 0.999);
-  const double k_t = engine::FrictionParams{}["k_t"];
-  switch (m) {
-    case engine::model_kind<engine::Dahl>:
-      // kappa >= 1: below 1 the strain equation is not Lipschitz at saturation and the
-      // adaptive steps collapse (2 s still base at rtol 1e-5: 20 k steps at kappa = 1, 3.9 M at
-      // 0.3 with Table 1's k_t, 54 M at 0.3 with k_t = 1e9; measured). The seed's kappa is 1.
-      return {{"F_C", 0.3, 60.0, true, F_C0},
-              {"k_t", 1e5, 1e9, true, k_t},
-              {"kappa", 1.0, 5.0, true, 1.0}};
-    case engine::model_kind<engine::Karnopp>:
-      return {{"F_S", 0.5, 60.0, true, F_S0}, {"F_C/F_S", 0.3, 1.0, false, ratio0}};
-    case engine::model_kind<engine::ResetIntegrator>:
-      return {{"s0", 5e-9, 1e-5, true, F_C0 / k_t},
-              {"alpha", 1e-3, 3.0, true, std::clamp(F_S0 / F_C0 - 1.0, 2e-3, 2.5)}};
-    case engine::model_kind<engine::LuGre>:
-      return {{"F_S", 0.5, 60.0, true, F_S0},
-              {"F_C/F_S", 0.3, 1.0, false, ratio0},
-              {"v_s", 2e-5, 1e-2, true, 3.5e-4}};
+  const engine::FitLevels levels{F_C0, F_S0};
+  // Every fitted parameter of the model's traits table, in table order: its fit range and
+  // scale, started from the levels (or its default); a ratio fit is named "name/relative_to".
+  std::vector<ParamSpec> out;
+  for (const engine::ParamDef& p : engine::model_traits(m).params) {
+    if (!p.fit.fitted()) continue;
+    std::string name = p.name;
+    if (p.fit.relative_to != nullptr) name += std::string("/") + p.fit.relative_to;
+    out.push_back({std::move(name), p.fit.lo, p.fit.hi, p.fit.scale == engine::FitScale::kLog,
+                   p.fit.start != nullptr ? p.fit.start(levels) : p.def});
   }
-  return {};
+  return out;
 }
 
 std::vector<ParamSpec> extension_specs(engine::ExtensionKind k) {

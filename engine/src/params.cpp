@@ -19,7 +19,8 @@ const std::vector<Field>& fields() {
       {"m", kPositive, [](SimConfig& c) -> double& { return c.drive.m; }},
       {"k_d", kPositive, [](SimConfig& c) -> double& { return c.drive.k_d; }},
       {"v_d", kPositive, [](SimConfig& c) -> double& { return c.drive.v_d; }},
-      {"F_z", kPositive, [](SimConfig& c) -> double& { return c.drive.F_z; }},
+      // >= 0: a slider loaded by its weight alone has F_z = 0 (e.g. the Colas et al. rig).
+      {"F_z", kNonNegative, [](SimConfig& c) -> double& { return c.drive.F_z; }},
       {"dt", kPositive, [](SimConfig& c) -> double& { return c.integrator.dt; }},
       {"rtol", kPositive, [](SimConfig& c) -> double& { return c.integrator.rtol; }},
       {"atol", kPositive, [](SimConfig& c) -> double& { return c.integrator.atol; }},

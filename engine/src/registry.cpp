@@ -6,7 +6,8 @@ namespace {
 template <class... Ms>
 std::array<ModelTraits, sizeof...(Ms)> make_traits(ModelList<Ms...>) {
   return {ModelTraits{model_kind<Ms>, &Ms::kInfo, Ms::kParams, registry_detail::options_of<Ms>(),
-                      registry_detail::constraints_of<Ms>(), Ms::kStates}...};
+                      registry_detail::constraints_of<Ms>(), Ms::kStates,
+                      registry_detail::in_every_canonical_spec<Ms>()}...};
 }
 const std::array<ModelTraits, kModelCount> kTraits = make_traits(FrictionModels{});
 
@@ -37,6 +38,17 @@ std::string model_names(std::string_view separator) {
   for (const ModelTraits& t : kTraits) {
     if (!out.empty()) out += separator;
     out += t.info->name;
+  }
+  return out;
+}
+
+std::vector<ModelKind> models_using(std::string_view name) {
+  std::vector<ModelKind> out;
+  for (const ModelTraits& t : kTraits) {
+    bool has = false;
+    for (const ParamDef& p : t.params) has = has || name == p.name;
+    for (const OptionDef& o : t.options) has = has || name == o.name;
+    if (has) out.push_back(t.kind);
   }
   return out;
 }

@@ -158,18 +158,23 @@ void rk4_event(RunContext& ctx, const H& hyb, typename H::State& y) {
   });
 }
 
-/// A model with its own Stepper accepts the adaptive integrator only (SimConfig::IsValid says so
-/// before a run starts).
+/// A model that does not accept an integrator (ModelInfo::integrators; e.g. one with its own
+/// Stepper, or GMS, which needs located switches) is refused here: SimConfig::IsValid says so
+/// before a run starts, and the integrator is not even instantiated for it.
 [[noreturn, maybe_unused]] void refuse_fixed_step(const char* model) {
   throw std::logic_error(std::string("fixed-step RK4 asked to run model ") + model +
-                         ", which brings its own integrator");
+                         ", which does not accept it");
+}
+template <class M>
+constexpr bool accepts(IntegratorKind k) {
+  return (M::kInfo.integrators >> static_cast<int>(k)) & 1u;
 }
 
 }  // namespace
 
 void run_rk4(RunContext& ctx) {
   visit_model(ctx.cfg.model, [&]<class M>(std::type_identity<M>) {
-    if constexpr (OwnStepper<M>) {
+    if constexpr (OwnStepper<M> || !accepts<M>(IntegratorKind::kRk4)) {
       refuse_fixed_step(M::kInfo.name);
     } else {
       const M model = make_model<M>(ctx.cfg);
@@ -182,7 +187,7 @@ void run_rk4(RunContext& ctx) {
 
 void run_rk4_event(RunContext& ctx) {
   visit_model(ctx.cfg.model, [&]<class M>(std::type_identity<M>) {
-    if constexpr (OwnStepper<M>) {
+    if constexpr (OwnStepper<M> || !accepts<M>(IntegratorKind::kRk4Event)) {
       refuse_fixed_step(M::kInfo.name);
     } else {
       const M model = make_model<M>(ctx.cfg);

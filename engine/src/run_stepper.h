@@ -24,6 +24,7 @@
 #include <cstddef>
 #include <string>
 
+#include "rosenbrock.h"
 #include "system.h"
 
 namespace stickslip::engine::detail {

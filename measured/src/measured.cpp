@@ -183,7 +183,8 @@ MeasuredDataset build_dataset(const json& doc, const std::string& prefix, const 
     if (const auto it = r.find("conditions"); it != r.end()) {
       MeasuredConditions& c = run.conditions;
       for (auto [key, field] : {std::pair{"m", &c.m}, std::pair{"kd", &c.kd},
-                                std::pair{"vd", &c.vd}, std::pair{"f", &c.f},
+                                std::pair{"vd", &c.vd}, std::pair{"Fz", &c.Fz},
+                                std::pair{"f", &c.f},
                                 std::pair{"va", &c.va}, std::pair{"t_on", &c.t_on},
                                 std::pair{"duration", &c.duration}})
         if (it->contains(key)) *field = it->at(key).get<double>();
@@ -294,6 +295,7 @@ void apply_conditions(const MeasuredConditions& c, engine::SimConfig& cfg) {
   cfg.drive.m = c.m;
   cfg.drive.k_d = c.kd;
   cfg.drive.v_d = c.vd;
+  cfg.drive.F_z = c.Fz;
   cfg.stages.clear();
   if (c.t_on > 0.0) cfg.stages.push_back(engine::Stage{std::min(c.t_on, c.duration), 0.0, c.f});
   if (c.t_on < c.duration) cfg.stages.push_back(engine::Stage{c.duration - c.t_on, c.va, c.f});
@@ -318,7 +320,8 @@ std::vector<std::tuple<double, double, double>> motion(const std::vector<engine:
 }  // namespace
 
 bool matches_conditions(const engine::SimConfig& cfg, const MeasuredConditions& c) {
-  if (!close(cfg.drive.m, c.m) || !close(cfg.drive.k_d, c.kd) || !close(cfg.drive.v_d, c.vd))
+  if (!close(cfg.drive.m, c.m) || !close(cfg.drive.k_d, c.kd) || !close(cfg.drive.v_d, c.vd) ||
+      !close(cfg.drive.F_z, c.Fz))
     return false;
   engine::SimConfig want = cfg;
   apply_conditions(c, want);

@@ -14,7 +14,7 @@
 #include <sstream>
 
 #include "stickslip/studies/map.h"
-#include "stickslip/reports/report_schema_data.h"  // generated at configure time
+#include "stickslip/reports/report_schema_data.h"  // generated at build time
 
 namespace stickslip::reports {
 namespace {
@@ -236,6 +236,7 @@ std::vector<EntryRun> run_report_studies(const ReportConfig& config, const Repor
     ro.threads = options.threads >= 0 ? options.threads : config.threads;
     ro.spec_dir = e.spec_dir;
     ro.stop = options.stop;
+    ro.execution = options.execution;
     if (options.on_progress)
       ro.on_progress = [&](const studies::Progress& p) { options.on_progress(e.id, p); };
     r.run = studies::run_study(options.db, r.study_id, *e.spec, ro);

@@ -17,6 +17,10 @@ bool WorkerOptions::IsValid(std::vector<std::string>* errors) const {
   if (threads < 0) fail("threads: must be >= 0, got " + std::to_string(threads));
   if (poll.count() < 1) fail("poll: must be >= 1 ms, got " + std::to_string(poll.count()));
   if (nice < 0 || nice > 19) fail("nice: must be in [0, 19], got " + std::to_string(nice));
+  if (execution.retries < 0)
+    fail("launcher retries: must be >= 0, got " + std::to_string(execution.retries));
+  if (execution.chunk_deadline_s < 0)
+    fail("chunk deadline: must be >= 0 s, got " + std::to_string(execution.chunk_deadline_s));
   return ok;
 }
 
@@ -33,6 +37,11 @@ RunJobFn study_runner(RunStudyFn run, const WorkerOptions& options) {
     ro.writer = options.writer;
     ro.cancel = &ctx.cancel;
     ro.stop = &ctx.stop;
+    ro.execution = options.execution;
+    ro.on_retry = [&id](int attempt, const std::string& why) {
+      spdlog::warn("study {}: attempt {} lost work ({}); starting it again for the missing runs",
+                   id, attempt, why);
+    };
     const auto summary = run(ctx.db, id, *parsed.spec, ro);
     spdlog::info("study {}: {} ({} computed, {} failed, {} already stored) in {:.3f} s{}{}", id,
                  studies::to_string(summary.outcome), summary.computed, summary.failed,

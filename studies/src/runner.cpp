@@ -26,169 +26,6 @@ double seconds_since(Clock::time_point t0) {
   return std::chrono::duration<double>(Clock::now() - t0).count();
 }
 
-// Sample rate [Hz] of the dense trace used to compare with a measured run: at least 2 kHz and
-// twice the measured mean rate, so linear interpolation adds no visible error to the RMSE.
-double rmse_trace_rate(const measured::MeasuredRun& m) {
-  const double span = m.t.back() - m.t.front();
-  const double mean_rate = span > 0 ? static_cast<double>(m.t.size() - 1) / span : 2000.0;
-  return std::min(50000.0, std::max(2000.0, 2.0 * mean_rate));
-}
-
-const measured::MeasuredRun* find_match(const measured::MeasuredDataset* measured, const engine::SimConfig& cfg) {
-  if (measured == nullptr) return nullptr;
-  for (const measured::MeasuredRun& m : measured->runs)
-    if (measured::matches_conditions(cfg, m.conditions)) return &m;
-  return nullptr;
-}
-
-void fill_from_result(const engine::SimResult& res, store::RunRecord& r) {
-  r.status = to_string(res.status);
-  r.error = res.reason;
-  r.t_end = res.t_end;
-  r.steps = static_cast<std::int64_t>(res.steps);
-  r.stages.clear();
-  for (std::size_t s = 0; s < res.stages.size(); ++s) {
-    const engine::StageMetrics& m = res.stages[s];
-    store::StageMetricsRecord rec;
-    rec.stage = static_cast<int>(s) + 1;
-    rec.t_start = m.t_start;
-    rec.t_end = m.t_end;
-    rec.amplitude = m.amplitude;
-    rec.amplitude_raw = m.amplitude_raw;
-    rec.mean_force = m.mean_force;
-    rec.mean_friction = m.mean_friction;
-    rec.slip_events = m.slip_events;
-    rec.mean_period = m.mean_period;
-    r.stages.push_back(rec);
-  }
-}
-
-// RMSE of the run against its measured run: whole trace and per stage (eq. 23 of the seed).
-void add_rmse(const engine::SimConfig& cfg, const engine::SimResult& res, const measured::MeasuredRun& m, store::RunRecord& r) {
-  std::vector<double> ts, fs;
-  ts.reserve(res.trace.size());
-  fs.reserve(res.trace.size());
-  for (const engine::TraceSample& p : res.trace) {
-    ts.push_back(p.t);
-    fs.push_back(p.F_d);
-  }
-  if (res.status != engine::RunStatus::kOk) return;  // a failed run has no comparable trace
-  const double whole = measured::rmse_window(m.t, m.Fd, ts, fs, 0.0, cfg.total_duration() + 1e-12);
-  if (std::isfinite(whole)) r.rmse = whole;
-  double t0 = 0.0;
-  for (std::size_t s = 0; s < cfg.stages.size() && s < r.stages.size(); ++s) {
-    const double t1 = t0 + cfg.stages[s].duration;
-    const double e = measured::rmse_window(m.t, m.Fd, ts, fs, t0, s + 1 == cfg.stages.size() ? t1 + 1e-12 : t1);
-    if (std::isfinite(e)) r.stages[s].rmse = e;
-    t0 = t1;
-  }
-}
-
-// Keeps every k-th sample so the stored trace has the rate the study asked for.
-std::vector<store::TracePoint> stored_trace(const std::vector<engine::TraceSample>& trace, std::size_t every) {
-  std::vector<store::TracePoint> out;
-  out.reserve(trace.size() / every + 1);
-  for (std::size_t i = 0; i < trace.size(); i += every) {
-    const engine::TraceSample& p = trace[i];
-    out.push_back({p.t, p.F_d, p.F_f, p.x, p.v, p.s});
-  }
-  return out;
-}
-
-// The identity columns of a run: parameters, their hash, model and va_over_vd.
-void identify(const StudySpec& spec, const DesignPoint& p, store::RunRecord& r) {
-  r.params_json = spec.canonical_point_json(p);
-  r.param_hash = store::param_hash(r.params_json);
-  if (!p.model.empty()) r.model = p.model;
-  r.va_over_vd = p.value("va_over_vd");
-}
-
-// Batched mode (engine/batch.h) runs several fixed-step rk4 runs in SIMD lanes with results
-// bitwise equal to simulate(), so it changes speed only. It applies when the study integrates
-// with rk4 and needs no trace (no stored traces, no measured data to compare with).
-bool batchable(const StudySpec& spec, const measured::MeasuredDataset* measured) {
-  return !spec.is_analytic() && measured == nullptr && spec.trace_rate() <= 0 &&
-         spec.base_config().integrator.kind == engine::IntegratorKind::kRk4;
-}
-
-// Groups the pending runs into jobs: runs whose configurations can share a batch (same model,
-// dt and base motion; engine/batch.h), up to the engine's lane count; every other run is a job of
-// one. Groups stay open while later runs may join them (at most kOpenGroups at a time, oldest
-// closed first), so a grid whose innermost axis is v_a still batches across its other axes.
-// The grouping depends only on the spec and the pending set, never on threads.
-std::vector<std::vector<std::size_t>> make_jobs(const StudySpec& spec,
-                                                const std::vector<std::size_t>& pending,
-                                                bool batch) {
-  std::vector<std::vector<std::size_t>> jobs;
-  if (!batch) {
-    jobs.reserve(pending.size());
-    for (std::size_t i : pending) jobs.push_back({i});
-    return jobs;
-  }
-  constexpr std::size_t kOpenGroups = 64;
-  struct Group {
-    std::vector<engine::SimConfig> cfgs;
-    std::vector<std::size_t> indices;
-  };
-  std::deque<Group> open;
-  for (std::size_t i : pending) {
-    std::optional<engine::SimConfig> cfg;
-    try {
-      cfg = spec.config_for(spec.point(i));
-    } catch (const std::exception&) {  // an invalid point: its own job, compute_run reports it
-    }
-    if (!cfg) {
-      jobs.push_back({i});
-      continue;
-    }
-    bool placed = false;
-    for (auto it = open.begin(); it != open.end() && !placed; ++it) {
-      it->cfgs.push_back(*cfg);
-      if (engine::batch_compatible(it->cfgs)) {
-        it->indices.push_back(i);
-        placed = true;
-        if (static_cast<int>(it->indices.size()) >= engine::batch_chunk_lanes(cfg->model)) {
-          jobs.push_back(std::move(it->indices));
-          open.erase(it);
-        }
-        break;
-      }
-      it->cfgs.pop_back();
-    }
-    if (placed) continue;
-    if (open.size() == kOpenGroups) {
-      jobs.push_back(std::move(open.front().indices));
-      open.pop_front();
-    }
-    open.push_back(Group{{*cfg}, {i}});
-  }
-  for (Group& g : open) jobs.push_back(std::move(g.indices));
-  return jobs;
-}
-
-// Computes a job of several batchable runs with one simulate_batch call.
-std::vector<store::RunRecord> compute_batch(const StudySpec& spec, const std::vector<std::size_t>& job,
-                                     const std::string& study_id) {
-  const auto t0 = Clock::now();
-  std::vector<store::RunRecord> out(job.size());
-  std::vector<engine::SimConfig> cfgs;
-  cfgs.reserve(job.size());
-  for (std::size_t k = 0; k < job.size(); ++k) {
-    const DesignPoint p = spec.point(job[k]);
-    out[k].study_id = study_id;
-    out[k].design_index = static_cast<std::int64_t>(job[k]);
-    identify(spec, p, out[k]);
-    cfgs.push_back(spec.config_for(p));
-  }
-  const std::vector<engine::SimResult> res = engine::simulate_batch(cfgs);
-  const double each = seconds_since(t0) / static_cast<double>(job.size());
-  for (std::size_t k = 0; k < job.size(); ++k) {
-    fill_from_result(res[k], out[k]);
-    out[k].wall_time_s = each;  // the lanes ran together; each gets its share
-  }
-  return out;
-}
-
 // A stored study's run count fits its spec: the design's runs, or for a Sobol design with
 // "until" the runs of a base size n 2^k (or n_max) it grew to.
 bool valid_extent(const StudySpec& spec, std::int64_t total) {
@@ -221,53 +58,6 @@ const char* to_string(RunOutcome o) noexcept {
     case RunOutcome::kFailed: return "failed";
   }
   return "?";
-}
-
-store::RunRecord compute_run(const StudySpec& spec, std::size_t design_index, const std::string& study_id,
-                      const measured::MeasuredDataset* measured) {
-  const auto t0 = Clock::now();
-  store::RunRecord r;
-  r.study_id = study_id;
-  r.design_index = static_cast<std::int64_t>(design_index);
-  try {
-    const DesignPoint p = spec.point(design_index);
-    identify(spec, p, r);
-    if (spec.is_analytic()) {
-      const double y = spec.analytic_value(p);
-      store::StageMetricsRecord m;
-      m.stage = 1;
-      m.amplitude = m.mean_force = y;
-      m.amplitude_raw = m.mean_friction = m.mean_period = std::nan("");
-      r.stages.push_back(m);
-    } else {
-      engine::SimConfig cfg = spec.config_for(p);  // throws InvalidParameter for a bad point
-      const measured::MeasuredRun* match = find_match(measured, cfg);
-      const double want_rate = spec.trace_rate();
-      std::size_t every = 1;
-      if (match != nullptr) {
-        const double need = rmse_trace_rate(*match);
-        if (want_rate > 0) {
-          every = static_cast<std::size_t>(std::ceil(need / want_rate));
-          cfg.trace.rate = want_rate * static_cast<double>(every);
-        } else {
-          cfg.trace.rate = need;
-        }
-      }
-      const engine::SimResult res = engine::simulate(cfg);  // never throws for bad input
-      fill_from_result(res, r);
-      if (match != nullptr) add_rmse(cfg, res, *match, r);
-      if (want_rate > 0) r.trace = stored_trace(res.trace, every);
-    }
-  } catch (const std::exception& e) {
-    r.status = "invalid";
-    r.error = e.what();
-    r.stages.clear();
-    r.trace.clear();
-    if (r.params_json.empty()) r.params_json = "{}";
-    if (r.param_hash.empty()) r.param_hash = store::param_hash(r.params_json);
-  }
-  r.wall_time_s = seconds_since(t0);
-  return r;
 }
 
 store::StudyRecord create_or_find_study(store::Store& store, const StudySpec& spec) {
@@ -306,13 +96,15 @@ auto retry_while_busy(Op&& op, const std::atomic<bool>* stop,
   }
 }
 
-/// One call of run_study: workers compute the missing runs (compute(), its own thread with an
-/// OpenMP team), the calling thread stores them (store_results()) and sets the study's state.
+/// One attempt of run_study: the backend computes the missing runs (compute_all(), its own
+/// thread), the calling thread stores them (store_results()) and sets the study's state.
+/// last_attempt: whether a backend that loses work marks the study failed (else run_study
+/// starts the backend again and the study stays running).
 class StudyRun {
  public:
   StudyRun(const std::filesystem::path& db, const std::string& study_id, const StudySpec& spec,
-           const RunnerOptions& opt)
-      : db_(db), id_(study_id), spec_(spec), opt_(opt) {}
+           const RunnerOptions& opt, bool last_attempt = true)
+      : db_(db), id_(study_id), spec_(spec), opt_(opt), last_attempt_(last_attempt) {}
 
   RunSummary run() {
     if (!prepare()) return sum_;
@@ -331,6 +123,7 @@ class StudyRun {
     sum_.batched = batched_runs_.load();
     sum_.store_s = store_s_;
     if (store_error_) return fail("store: " + *store_error_, store_fault_);
+    if (lost_ && !stop_requested()) return lost(*lost_);
     return finish();
   }
 
@@ -351,6 +144,24 @@ class StudyRun {
       } catch (const std::exception&) {  // the store itself is the problem; nothing more to do
       }
     }
+    sum_.wall_s = seconds_since(t_start_);
+    return sum_;
+  }
+  /// The backend lost work: everything it delivered is committed; the study is failed on the
+  /// last attempt and stays running (for the next attempt) otherwise.
+  RunSummary lost(const std::string& why) {
+    std::int64_t stored = progress_.done;
+    try {
+      stored = store::Store::open(db_, store::Store::Mode::kReadOnly).count_runs(id_).done;
+    } catch (const std::exception&) {  // the count is for the message only
+    }
+    sum_.lost = true;
+    const std::string what = why + "; " + std::to_string(stored) + " of " +
+                             std::to_string(sum_.total) + " runs are stored";
+    if (last_attempt_)
+      return fail(what + " (run the study again to compute the missing runs)");
+    sum_.outcome = RunOutcome::kFailed;
+    sum_.error = what;
     sum_.wall_s = seconds_since(t_start_);
     return sum_;
   }
@@ -413,7 +224,10 @@ class StudyRun {
     progress_.done = counts.done;
     progress_.failed = counts.failed;
     sum_.skipped = counts.done;
-    store.set_study_state(id_, store::StudyState::kRunning);
+    const std::string note =
+        opt_.execution.executor ? opt_.execution.executor->running_note() : std::string();
+    store.set_study_state(id_, store::StudyState::kRunning,
+                          note.empty() ? std::nullopt : std::optional<std::string>(note));
   }
 
   bool stop_requested() const {
@@ -422,53 +236,35 @@ class StudyRun {
            (opt_.stop != nullptr && opt_.stop->load(std::memory_order_relaxed));
   }
 
-  /// One job (one run, or a batch the engine computes at once); never throws.
-  std::vector<store::RunRecord> compute_job(const std::vector<std::size_t>& job,
-                                            const measured::MeasuredDataset* mdata) {
-    std::vector<store::RunRecord> recs;
-    // No exception may leave the OpenMP region: compute_run never throws, and a batch that
-    // throws (it cannot for configurations make_jobs accepted) falls back to one run at a time.
-    try {
-      if (job.size() > 1) {
-        recs = compute_batch(spec_, job, id_);
-        batched_runs_ += static_cast<std::int64_t>(recs.size());
-      }
-    } catch (...) {
-      recs.clear();
-    }
-    if (recs.empty())
-      for (std::size_t i : job) {
-        try {
-          recs.push_back(compute_run(spec_, i, id_, mdata));
-        } catch (...) {
-          store::RunRecord rec;
-          rec.study_id = id_;
-          rec.design_index = static_cast<std::int64_t>(i);
-          rec.params_json = "{}";
-          rec.param_hash = store::param_hash(rec.params_json);
-          rec.status = "invalid";
-          rec.error = "internal error while computing the run";
-          recs.push_back(std::move(rec));
-        }
-      }
-    return recs;
-  }
-
-  /// The workers: every pending job, pushed into the queue as it finishes.
+  /// The compute thread: the backend computes every pending run and the sink queues the records
+  /// for this run's writer thread. A backend that loses work (ExecutorError) ends the round with
+  /// lost_ set: what it delivered is still committed.
   void compute_all() {
-    const measured::MeasuredDataset* mdata = measured_ ? &*measured_ : nullptr;
-    const auto jobs = make_jobs(spec_, pending_, batchable(spec_, mdata));
-    const long n = static_cast<long>(jobs.size());
-    const int threads = opt_.threads > 0 ? opt_.threads : omp_get_max_threads();
-#pragma omp parallel for schedule(dynamic, 1) num_threads(threads)
-    for (long k = 0; k < n; ++k) {
-      if (stop_requested()) continue;
-      std::vector<store::RunRecord> recs = compute_job(jobs[static_cast<std::size_t>(k)], mdata);
+    ComputeRequest req;
+    req.study_id = id_;
+    req.spec = &spec_;
+    req.measured = measured_ ? &*measured_ : nullptr;
+    std::error_code ec;
+    req.spec_dir = std::filesystem::absolute(opt_.spec_dir, ec);
+    if (ec) req.spec_dir = opt_.spec_dir;
+    req.pending = pending_;
+    req.threads = opt_.threads;
+    req.chunk_deadline_s = opt_.execution.chunk_deadline_s;
+    req.batched = &batched_runs_;
+    const auto sink = [this](std::vector<store::RunRecord>&& recs) {
       {
         std::lock_guard lock(mu_);
         for (store::RunRecord& rec : recs) queue_.push_back(std::move(rec));
       }
       cv_.notify_one();
+    };
+    Executor& executor =
+        opt_.execution.executor ? *opt_.execution.executor : *local_executor();
+    try {
+      executor.compute(req, sink, [this] { return stop_requested(); });
+    } catch (const std::exception& e) {
+      std::lock_guard lock(mu_);
+      lost_ = std::string(e.what());
     }
     {
       std::lock_guard lock(mu_);
@@ -579,7 +375,7 @@ class StudyRun {
       if (done == nullptr) return fail(incomplete_);
       if (grown_) {  // the next round computes the new base rows only
         report();
-        return next_round(sum_, StudyRun(db_, id_, spec_, opt_).run(), t_start_);
+        return next_round(sum_, run_study(db_, id_, spec_, opt_), t_start_);
       }
     } catch (const std::exception& e) {
       return fail(e);
@@ -593,6 +389,7 @@ class StudyRun {
   const std::string& id_;
   const StudySpec& spec_;
   const RunnerOptions& opt_;
+  const bool last_attempt_;
   const Clock::time_point t_start_ = Clock::now();
   RunSummary sum_;
   Progress progress_;
@@ -607,6 +404,7 @@ class StudyRun {
   std::atomic<bool> abort_{false};  // set by this thread when the store fails
   std::atomic<std::int64_t> batched_runs_{0};
   std::optional<std::string> store_error_;
+  std::optional<std::string> lost_;  ///< why the backend lost work (ExecutorError)
   store::StoreFault store_fault_ = store::StoreFault::kNone;
   std::string incomplete_;
   bool grown_ = false;  ///< a Sobol design with "until" was extended: another round follows
@@ -619,7 +417,17 @@ class StudyRun {
 
 RunSummary run_study(const std::filesystem::path& db, const std::string& study_id,
                      const StudySpec& spec, const RunnerOptions& opt) {
-  return StudyRun(db, study_id, spec, opt).run();
+  const Clock::time_point t_start = Clock::now();
+  const int attempts = 1 + std::max(0, opt.execution.retries);
+  std::optional<RunSummary> before;  // the attempts so far
+  for (int attempt = 1;; ++attempt) {
+    RunSummary sum = StudyRun(db, study_id, spec, opt, attempt == attempts).run();
+    if (before) sum = next_round(*before, std::move(sum), t_start);
+    sum.attempts = attempt;
+    if (sum.outcome != RunOutcome::kFailed || !sum.lost || attempt == attempts) return sum;
+    if (opt.on_retry) opt.on_retry(attempt, sum.error);
+    before = std::move(sum);
+  }
 }
 
 }  // namespace stickslip::studies

@@ -435,9 +435,13 @@ class Dashboard(unittest.TestCase):
         self.shot("reports")
         self.go("/server")
         self.wait(lambda: self.js("return document.body.dataset.page") == "server", what="server page")
-        self.assertIn("ok", self.driver.find_element(By.ID, "health").text)
-        self.wait(lambda: self.driver.find_element(By.ID, "m-rate").text.split("\n")[0] != "…", what="runs/s")
-        runs = int(self.driver.find_element(By.CSS_SELECTOR, "#m-runs .value").text)
+        self.wait(lambda: "ok" in self.js("const e = document.getElementById('health'); return e ? e.innerText : ''"),
+                  what="health ok")
+        # The page re-renders its tiles on every poll, so a WebElement found here can go stale
+        # before it is read: read the text in one script call instead.
+        self.wait(lambda: (self.js("const e = document.getElementById('m-rate'); return e ? e.innerText : '…'")
+                           .split("\n")[0] != "…"), what="runs/s")
+        runs = int(self.js("return document.querySelector('#m-runs .value').innerText"))
         _, _, metrics = http("GET", self.url + "/metrics")
         total = sum(int(l.split()[-1]) for l in metrics.decode().split("\n") if l.startswith("stickslip_runs_total{"))
         self.assertEqual(runs, total)

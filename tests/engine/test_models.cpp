@@ -41,6 +41,15 @@ class EveryModel : public ::testing::Test {
     return model_traits(kKind).accepts(static_cast<int>(k));
   }
   static bool switching() { return M::kInfo.model_class == ModelClass::kSwitching; }
+  /// Lowest acceptable fixed-step order on the smooth run: 3 (RK4's 4 less a margin), unless
+  /// the model declares a right-hand side that is only C^k in its state (kRhsDerivatives = k,
+  /// e.g. the elasto-plastic sine ramp, k = 1): crossing a jump of the (k+1)-th derivative
+  /// costs RK4 a local error O(h^(k+2)), i.e. global order k + 2 (less a margin of 0.3).
+  static double min_order() {
+    if constexpr (requires { M::kRhsDerivatives; })
+      return std::min(3.0, M::kRhsDerivatives + 2.0 - 0.3);
+    return 3.0;
+  }
 };
 TYPED_TEST_SUITE(EveryModel, GTestTypes<FrictionModels>::type, ModelName);
 
@@ -214,20 +223,29 @@ TYPED_TEST(EveryModel, ConvergenceOrderOfEachIntegrator) {
     const double order = std::log(e1 / e2) / std::log(ratio);
     this->RecordProperty(std::string(TypeParam::kInfo.name) + "_order_" + to_string(k),
                    std::to_string(order));
-    // Measured: Dahl 3.9-4.0, LuGre 3.9 (rk4 = rk4_event); Karnopp 3.2, Reset Integrator 3.4.
-    EXPECT_GT(order, 3.0) << e1 << " " << e2;
+    // Measured: Dahl 3.9-4.0, LuGre 3.9 (rk4 = rk4_event); Karnopp 3.2, Reset Integrator 3.4;
+    // elasto-plastic 2.98 (a C^1 right-hand side, see kRhsDerivatives).
+    EXPECT_GT(order, this->min_order()) << e1 << " " << e2;
     EXPECT_LT(order, 5.0) << e1 << " " << e2;
   }
   if (this->accepts(IntegratorKind::kAdaptive)) {
+    // Smooth models: the step is left to the error control (dt_max = the run's length): with
+    // the default 1e-4 s cap a model whose steps are limited by dt_max at rtol 1e-5
+    // (rate-and-state: 200 steps, error 5.7e-7 N, far inside the tolerance) shows no gain from
+    // a tighter rtol. (Switching models keep the cap: Karnopp with dt_max = 1.05 s ends 5.9 N
+    // off at rtol 1e-8, not investigated.)
     auto err = [&](double rtol) {
       SimConfig a = c;
       a.integrator.rtol = a.integrator.atol = rtol;
+      if (!this->switching()) a.integrator.dt_max = c.total_duration();
       return x_error(a, IntegratorKind::kAdaptive, 1e-6, x_ref);
     };
     const double loose = err(1e-5), tight = err(1e-8);
     EXPECT_LE(tight, loose + 1e-9);
     EXPECT_LT(tight, 1e-6);
-    if (!this->switching()) {
+    // (Unless the loose error is already near the reference's: a model without internal states
+    // can be that accurate at any tolerance.)
+    if (!this->switching() && loose > 1e-9) {
       EXPECT_LT(tight * 30, loose) << "the error must shrink with rtol";
     }
   }

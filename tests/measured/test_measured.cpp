@@ -67,7 +67,28 @@ TEST_F(Measured, GoodDatasetLoadsWithDefaultsAndUnevenSampling) {
   EXPECT_DOUBLE_EQ(r.conditions.va, 0.0002);
   EXPECT_DOUBLE_EQ(r.conditions.t_on, 5.0);
   EXPECT_DOUBLE_EQ(r.conditions.m, 0.665);     // seed default
+  EXPECT_DOUBLE_EQ(r.conditions.Fz, 29.4);     // seed default
   EXPECT_DOUBLE_EQ(r.conditions.duration, 20.0);
+}
+
+// The external normal load is an optional condition (>= 0; 0 for a slider loaded by its weight
+// alone), applied to the drive (F_N = F_z + m g) and part of matching; a negative one is a schema
+// error naming it.
+TEST_F(Measured, NormalLoadConditionIsOptionalAndApplied) {
+  write("a.csv", good_csv());
+  manifest(R"([{"name": "r", "file": "a.csv", "conditions": {"Fz": 0, "m": 0.0307}}])");
+  const MeasuredDataset ds = load_measured(dir_ / "m.json");
+  EXPECT_DOUBLE_EQ(ds.runs[0].conditions.Fz, 0.0);
+  engine::SimConfig cfg;
+  apply_conditions(ds.runs[0].conditions, cfg);
+  EXPECT_DOUBLE_EQ(cfg.drive.F_z, 0.0);
+  EXPECT_NEAR(cfg.drive.normal_load(), 0.0307 * 9.81, 1e-15);
+  EXPECT_TRUE(matches_conditions(cfg, ds.runs[0].conditions));
+  cfg.drive.F_z = 29.4;
+  EXPECT_FALSE(matches_conditions(cfg, ds.runs[0].conditions));
+  manifest(R"([{"name": "r", "file": "a.csv", "conditions": {"Fz": -1}}])");
+  const std::string e = only_error();
+  EXPECT_NE(e.find("/runs/0/conditions/Fz"), std::string::npos) << e;
 }
 
 TEST_F(Measured, MissingFileNamesIt) {

@@ -6,16 +6,18 @@ import { h, num } from "./dom.js";
 
 /* global uPlot */
 
-export const MODEL_COLORS = {
-  dahl: "#1f77b4",
-  karnopp: "#d62728",
-  reset_integrator: "#2ca02c",
-  lugre: "#9467bd",
-};
 const PALETTE = ["#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#e377c2", "#17becf"];
 
+// A friction model takes the palette colour of its position in the registry (models.js), so it
+// has the same colour on every chart; any other series takes the colour of its own position.
+let modelOrder = [];
+export function setModelOrder(models) {
+  modelOrder = models || [];
+}
+
 export function colorOf(name, i) {
-  return MODEL_COLORS[name] || PALETTE[i % PALETTE.length];
+  const k = modelOrder.indexOf(name);
+  return PALETTE[(k >= 0 ? k : i) % PALETTE.length];
 }
 
 const registry = (window.stickslip = window.stickslip || {}).charts = {};

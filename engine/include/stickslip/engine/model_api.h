@@ -67,6 +67,9 @@ inline constexpr Interval kAnyFinite{};
 /// breakaway level (mean + half the peak-to-peak amplitude).
 struct FitLevels {
   double slip = 0.0, stick = 0.0;
+  /// The record's normal load F_N [N] (Drive::normal_load()), for parameters written per unit
+  /// normal load (a friction coefficient starts from slip / F_N); 0 when unknown.
+  double normal_load = 0.0;
 };
 using FitStart = double (*)(const FitLevels&);
 enum class FitScale { kLinear, kLog };
@@ -131,6 +134,8 @@ enum class ModelClass { kSmooth, kSwitching };
 
 /// Integrators a model accepts (bit i: IntegratorKind i).
 inline constexpr unsigned kAllIntegrators = 0x7u;
+/// The adaptive integrator only (a model with its own Stepper; params.h checks the bit).
+inline constexpr unsigned kAdaptiveOnly = 1u << 2;
 
 /// The model's primary internal state: the trace's and the result's "s" [unit from dim].
 struct StateInfo {
@@ -157,7 +162,8 @@ struct ModelInfo {
 // ------------------------------------------------------------------ run conditions
 
 /// Drive and body (the seed's values). The normal load F_N = F_z + m g is what models written per
-/// unit normal load use.
+/// unit normal load use (rate-and-state: F_f = F_N mu). F_z >= 0 is the external load on a
+/// horizontal slider; 0 for a slider loaded by its weight alone.
 struct Drive {
   double m = 0.665;      ///< body mass [kg]
   double k_d = 11700.0;  ///< drive stiffness [N/m]
@@ -243,6 +249,61 @@ struct FrictionEvalN {
   double F_f;                ///< friction force on the body [N]
   std::array<double, Z> dz;  ///< z' [state unit / s]
 };
+
+/// The base motion at one instant: u', u'' and u''' [m/s, m/s^2, m/s^3].
+struct BaseMotion {
+  double ub = 0.0, ab = 0.0, jb = 0.0;
+};
+/// An implicit system's right-hand side at one point, with the forces it came from [N].
+template <int N>
+struct ImplicitEval {
+  std::array<double, N> f{};
+  double F_d = 0.0, F_f = 0.0;
+};
+/// The same with the Jacobian J = df/dy and the explicit time derivative f_t = df/dt.
+template <int N>
+struct ImplicitLinear {
+  std::array<double, N> f{}, f_t{};
+  std::array<std::array<double, N>, N> J{};
+  double F_d = 0.0, F_f = 0.0;
+};
+
+/// The engine's linearly implicit integrator for stiff models: Rosenbrock's RODAS4 (Hairer &
+/// Wanner) with the exact Jacobian, adaptive steps and error control in force units
+/// (engine/src/rosenbrock.h). A model chooses it with `using Stepper = RosenbrockStepper<M>;`
+/// and provides the system it advances as M::Implicit, in coordinates of its choice (e.g.
+/// rate-and-state advances mu/a instead of the velocity, see models/rate_state.h):
+///
+///   struct Implicit {
+///     static constexpr int N;                          // dimension
+///     Implicit(const M& model, const Drive& drive);
+///     // From and to the engine's state (x [m], x' [m/s], internal states) at base motion b:
+///     std::array<double, N> from_state(double x, double v, const std::array<double, Z>& z,
+///                                      const BaseMotion& b) const;
+///     void to_state(const std::array<double, N>& y, const BaseMotion& b, double* x, double* v,
+///                   std::array<double, Z>* z) const;
+///     ImplicitEval<N> eval(double t, const std::array<double, N>& y, const BaseMotion& b) const;
+///     ImplicitLinear<N> linearise(double t, const std::array<double, N>& y,
+///                                 const BaseMotion& b) const;
+///     std::array<double, N> error_weights(int mode) const;  // N per unit of each component
+///     // Modes (charts): the mode of an engine state, and the event that leaves a mode (>= 0
+///     // inside, fires when < 0; y0, b0: the step's start), and what happens there: the next
+///     // mode, y mapped into it and possibly advanced over dt <= dt_max by the system itself.
+///     int mode_of(double v_r) const;
+///     double event(int mode, const std::array<double, N>& y0, const BaseMotion& b0, double t,
+///                  const std::array<double, N>& y, const BaseMotion& b) const;
+///     // The predicted time until the mode's event (infinite: none): the step ends there.
+///     double time_to_event(int mode, const std::array<double, N>& y,
+///                          const std::array<double, N>& f, const BaseMotion& b) const;
+///     // The lowest event value accepted where an event is located (-inf: any).
+///     double event_floor(int mode) const;
+///     struct Jump { int mode; double dt; };
+///     Jump enter(int mode, double t, std::array<double, N>& y, const BaseMotion& b,
+///                double dt_max) const;
+///   };
+/// with a mode argument first in from_state, to_state, eval and linearise.
+template <class M>
+class RosenbrockStepper;
 
 inline double sgn(double v) noexcept { return (v > 0.0) - (v < 0.0); }
 

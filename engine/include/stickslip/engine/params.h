@@ -35,6 +35,7 @@ enum class IntegratorKind {
   kAdaptive,  ///< adaptive-step RK (Dormand-Prince 5(4)) with the bristle equation advanced
               ///< exactly by an integrating factor, and located switches. Our default.
 };
+static_assert(kAdaptiveOnly == 1u << static_cast<int>(IntegratorKind::kAdaptive));
 const char* to_string(IntegratorKind k) noexcept;
 IntegratorKind integrator_from_string(std::string_view name);
 

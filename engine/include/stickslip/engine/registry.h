@@ -52,6 +52,11 @@ constexpr std::span<const OptionDef> options_of() {
   else return {};
 }
 template <class M>
+constexpr bool in_every_canonical_spec() {
+  if constexpr (requires { M::kInEveryCanonicalSpec; }) return M::kInEveryCanonicalSpec;
+  else return false;
+}
+template <class M>
 constexpr std::span<const Constraint> constraints_of() {
   if constexpr (requires { M::kConstraints; }) return M::kConstraints;
   else return {};
@@ -77,6 +82,12 @@ struct ModelTraits {
   std::span<const OptionDef> options;
   std::span<const Constraint> constraints;
   int states;  ///< internal states (capacity)
+  /// The study spec's canonical form (and so the hash that a stored study is resumed by)
+  /// carries this model's parameters whatever models the study uses: true for the seed's four
+  /// models (M::kInEveryCanonicalSpec), whose parameters every canonical form written before
+  /// other models were registered holds. Other models' parameters appear only in the canonical
+  /// form of a study that uses them, so registering a model changes no stored study's hash.
+  bool in_every_canonical_spec;
   bool accepts(int integrator_kind) const noexcept {
     return (info->integrators >> integrator_kind) & 1u;
   }
@@ -93,6 +104,8 @@ const char* to_string(ModelKind m) noexcept;
 ModelKind model_from_string(std::string_view name);
 /// The registered names joined: "dahl, karnopp, reset_integrator, lugre".
 std::string model_names(std::string_view separator = ", ");
+/// The models whose traits table has the parameter or option name (not an alias), in list order.
+std::vector<ModelKind> models_using(std::string_view name);
 
 // ------------------------------------------------------------------ implementation
 

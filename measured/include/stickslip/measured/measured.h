@@ -32,6 +32,7 @@ struct MeasuredConditions {
   double m = 0.665;      ///< [kg]
   double kd = 11700.0;   ///< [N/m]
   double vd = 1e-3;      ///< [m/s]
+  double Fz = 29.4;      ///< external normal load [N]; F_N = Fz + m g (0: the weight alone)
   double f = 1500.0;     ///< [Hz]
   double va = 0.0;       ///< [m/s]
   double t_on = 10.0;    ///< [s] vibration starts

@@ -95,6 +95,9 @@ struct ReportOptions {
   std::function<void(const std::string&, const studies::Progress&)> on_progress;
   /// Set and true: stop starting runs (the report is not written; the studies resume next time).
   const std::atomic<bool>* stop = nullptr;
+  /// Where the studies are computed (studies/executor.h): OpenMP here by default, an MPI job
+  /// per study with a launcher, or the ranks of the MPI job this process is rank 0 of.
+  studies::Execution execution;
   bool IsValid(std::string* why) const;
 };
 

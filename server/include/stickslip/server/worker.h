@@ -7,6 +7,11 @@
 //   that finish are committed, and run_study marks the study cancelled (the API answers 202).
 // - Shutdown: the stop flag (RunnerOptions::stop) does the same but leaves the study queued, so
 //   the next start resumes it.
+// - With a launcher (WorkerOptions::execution, `stickslipd --launcher`), each study runs as one
+//   MPI job whose rank 0 streams the runs back (studies/launcher.h); this process still commits
+//   them, so progress, cancel and shutdown behave as above. A job that loses a rank is started
+//   again for the missing runs up to execution.retries times, then the study is failed with
+//   the launcher's message.
 // - A study whose stored spec does not parse (e.g. a limit was lowered since it was queued) is
 //   marked failed with the errors. A store fault (run_study's RunSummary::store_fault) leaves
 //   the study queued with the error and pauses the worker (job_worker.h).
@@ -40,6 +45,8 @@ struct WorkerOptions {
   /// want it (docs/server.md, Load).
   int nice = 0;
   store::WriterOptions writer;
+  /// Where studies are computed: OpenMP here (default) or one MPI job each (a launcher).
+  studies::Execution execution;
 
   /// True if every field holds. Otherwise appends one message per broken constraint, naming the
   /// field and the value, to *errors when errors is non-null.

@@ -17,7 +17,7 @@ export async function render(main, params, query, alive) {
       "div",
       { class: "card" },
       h("h1", null, "Diagnoses"),
-      h("p", { class: "muted" }, "Measured records calibrated against the four models, with the named cause. Submit one with ", h("code", null, "stickslip diagnose MANIFEST.json --server URL"), " (or POST /v1/diagnoses)."),
+      h("p", { class: "muted" }, "Measured records calibrated against the friction models, with the named cause. Submit one with ", h("code", null, "stickslip diagnose MANIFEST.json --server URL"), " (or POST /v1/diagnoses)."),
       body,
     ),
   );

@@ -6,7 +6,8 @@
 // bars with their confidence intervals (GET .../indices).
 import { api, enc, ApiError } from "../api.js";
 import { h, replace, stateBadge, when, kv, num, errorBox, choice, describeError } from "../dom.js";
-import { lineChart, heatmap, barsCI, colorOf } from "../charts.js";
+import { lineChart, heatmap, barsCI, colorOf, setModelOrder } from "../charts.js";
+import { frictionModels } from "../models.js";
 import { progressCell, updateProgress } from "./studies.js";
 
 const POLL_MS = 1000;
@@ -130,8 +131,9 @@ export async function render(main, [id], query, alive) {
       return;
     }
     try {
-      const columns = await api.get(base + "/map?layout=columns");
+      const [columns, models] = await Promise.all([api.get(base + "/map?layout=columns"), frictionModels()]);
       performance.mark("map-fetched");
+      setModelOrder(models);
       map = fromColumns(columns);
     } catch (err) {
       replace(mapCard, h("h2", null, "Stick-slip map"), h("p", { class: "notice" }, "No map for this study: " + describeError(err)));

@@ -7,19 +7,19 @@
 import { Validator } from "../../vendor/cfworker-json-schema-4.1.6/index.js";
 import { api, randomKey, ApiError } from "../api.js";
 import { h, replace, errorBox } from "../dom.js";
+import { modelsOf } from "../models.js";
 
-const EXAMPLE = {
-  name: "example-map",
-  stages: [{ duration: 2 }, { duration: 2, v_a: 0, f: 1500 }],
-  integrator: { kind: "rk4", dt: 1e-5 },
-  design: {
-    type: "grid",
-    axes: [
-      { name: "model", values: ["dahl", "karnopp", "reset_integrator", "lugre"] },
-      { name: "va_over_vd", values: [0, 0.5, 1, 2, 4, 6] },
-    ],
-  },
-};
+/** An example map over the server's friction models (models.js; none known: the base's). */
+function example(models) {
+  const axes = [{ name: "va_over_vd", values: [0, 0.5, 1, 2, 4, 6] }];
+  if (models.length) axes.unshift({ name: "model", values: models });
+  return {
+    name: "example-map",
+    stages: [{ duration: 2 }, { duration: 2, v_a: 0, f: 1500 }],
+    integrator: { kind: "rk4", dt: 1e-5 },
+    design: { type: "grid", axes },
+  };
+}
 
 // Keywords that only say "something below failed": shown only when nothing more precise is.
 const CONTAINERS = new Set(["properties", "items", "prefixItems", "additionalProperties", "unevaluatedProperties", "$ref", "allOf", "anyOf", "oneOf", "if", "then", "else", "dependentSchemas", "contains", "propertyNames", "$recursiveRef"]);
@@ -109,7 +109,7 @@ export async function render(main, params, query, alive) {
   if (!alive()) return null;
 
   const text = h("textarea", { id: "spec-text", spellcheck: "false", "aria-label": "study spec (JSON)" });
-  text.value = JSON.stringify(EXAMPLE, null, 2);
+  text.value = JSON.stringify(example(modelsOf(schema)), null, 2);
   const file = h("input", { type: "file", accept: ".json,application/json", id: "spec-file" });
   const exampleBtn = h("button", { type: "button" }, "Example");
   const submitBtn = h("button", { type: "button", class: "primary", id: "submit-study" }, "Submit");
@@ -180,7 +180,7 @@ export async function render(main, params, query, alive) {
   }
   text.addEventListener("input", changed);
   exampleBtn.addEventListener("click", () => {
-    text.value = JSON.stringify(EXAMPLE, null, 2);
+    text.value = JSON.stringify(example(modelsOf(schema)), null, 2);
     changed();
   });
   file.addEventListener("change", async () => {

@@ -4,12 +4,17 @@
 // Execution model (MuJoCo style: one read-only model, one workspace per run):
 //  - The StudySpec is shared read-only by all threads. Each run builds its own SimConfig and
 //    calls the engine, which keeps all mutable state on its own stack.
-//  - OpenMP workers take runs with schedule(dynamic) and push finished RunRecords into a queue.
-//    The calling thread is the single writer: it drains the queue into one RunWriter (batched
-//    transactions) and reports progress. No exception leaves the parallel region: an exception
-//    of one run makes that run "invalid" with the message as its error.
-//  - Results depend only on (spec, design index), never on the thread count or the schedule:
-//    every run is computed by the same sequential code whatever thread takes it.
+//  - A backend (executor.h; RunnerOptions::execution) computes the runs on a thread of its own:
+//    OpenMP workers in this process by default (schedule(dynamic)), or the ranks of an MPI job.
+//    It pushes finished RunRecords into a queue. The calling thread is the single writer: it
+//    drains the queue into one RunWriter (batched transactions) and reports progress. No
+//    exception leaves a parallel region: an exception of one run makes that run "invalid" with
+//    the message as its error.
+//  - Results depend only on (spec, design index), never on the backend, the rank or thread
+//    count or the schedule: every run is computed by the same sequential code (compute.h).
+//  - A backend that loses work (a rank died or hung, a launched MPI job ended early) ends the
+//    attempt: what it delivered is committed, and run_study starts the backend again for the
+//    missing runs up to execution.retries times, then marks the study failed with the reason.
 //  - Resume: runs already stored (Store::completed_design_indices) are skipped, so a study
 //    killed at any point is finished by running it again, without duplicates.
 //  - Cancellation: a set cancel flag stops workers from starting new runs; runs already finished
@@ -23,6 +28,7 @@
 #include <string>
 
 #include "stickslip/measured/measured.h"
+#include "stickslip/studies/executor.h"
 #include "stickslip/studies/spec.h"
 #include "stickslip/store/store.h"
 
@@ -47,6 +53,11 @@ struct RunnerOptions {
   const std::atomic<bool>* stop = nullptr;
   /// Directory that a relative spec.measured() path is resolved against (the spec file's dir).
   std::filesystem::path spec_dir = ".";
+  /// The backend that computes the runs (default: OpenMP in this process) and its retries.
+  Execution execution;
+  /// Called on the calling thread when an attempt lost work and another one starts: the
+  /// attempt's number (from 1) and why it ended.
+  std::function<void(int attempt, const std::string& why)> on_retry;
 };
 
 enum class RunOutcome { kCompleted, kCancelled, kStopped, kFailed };
@@ -69,6 +80,10 @@ struct RunSummary {
   /// A Sobol design with "until": the rule's verdict after each round, in order (the study grew
   /// after every entry but the last, which says why it stopped).
   std::vector<std::string> until;
+  /// kFailed because the backend lost work (ExecutorError: a rank died or hung, a launched job
+  /// ended early): every run it delivered is stored; running the study again resumes it.
+  bool lost = false;
+  int attempts = 1;  ///< attempts of the backend (1 + the retries used)
 };
 
 /// Computes one run of a study (no store involved): parameters, status, metrics, optional trace

@@ -14,6 +14,12 @@ inline constexpr ParamDef kFC{"F_C", kForce, 8.3, kPositive,
                                         {}, "F_slip"};
 inline constexpr ParamDef kFS{"F_S", kForce, 11.1, kPositive,
                                        "static friction force"};
+/// The Stribeck curve's velocity and the bristle's damping of LuGre (the seed's eqs. 18-22),
+/// shared by the models built on its bristle or its Stribeck curve (elasto-plastic, GMS).
+inline constexpr ParamDef kVs{"v_s", kVelocity, 3.5e-4, kPositive, "Stribeck velocity"};
+inline constexpr ParamDef kHt{"h_t", kDamping, 1.377e4, kNonNegative,
+                              "bristle (presliding) damping (the seed's eq. 21 with zeta = 1)"};
+inline constexpr ParamDef kHv{"h_v", kDamping, 0.0, kNonNegative, "viscous damping"};
 
 /// Start a force-level parameter from the measured breakaway / sliding level.
 inline constexpr FitStart kStartStick = [](const FitLevels& l) { return l.stick; };

@@ -29,6 +29,9 @@ struct Dahl {
       {"kappa", kDimensionless, 1.0, kPositive, "Dahl exponent", {1.0, 5.0, FitScale::kLog}},
   };
   static constexpr int kStates = 1;
+  /// One of the seed's four models: every study spec's canonical form carries its parameters
+  /// (registry.h, ModelTraits::in_every_canonical_spec).
+  static constexpr bool kInEveryCanonicalSpec = true;
 
   double k_t, kappa, F_C;
   double k_over_FC;  // k_t / F_C [1/m]

@@ -29,6 +29,9 @@ struct Karnopp {
   };
   static constexpr Constraint kConstraints[] = {{"F_S", "F_C"}};
   static constexpr int kStates = 0;
+  /// One of the seed's four models: every study spec's canonical form carries its parameters
+  /// (registry.h, ModelTraits::in_every_canonical_spec).
+  static constexpr bool kInEveryCanonicalSpec = true;
 
   double DV, F_S, F_slip;
 

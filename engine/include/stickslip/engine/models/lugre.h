@@ -25,14 +25,16 @@ struct LuGre {
   static constexpr ParamDef kParams[] = {
       contact::kFS.with_fit(contact::kFitStaticForce),
       contact::kFC.with_fit(contact::kFitCoulombFraction),
-      {"v_s", kVelocity, 3.5e-4, kPositive, "LuGre Stribeck velocity",
-       {2e-5, 1e-2, FitScale::kLog}},
+      contact::kVs.with_fit({2e-5, 1e-2, FitScale::kLog}),
       contact::kKt,
-      {"h_t", kDamping, 1.377e4, kNonNegative, "LuGre bristle damping (eq. 21 with zeta = 1)"},
-      {"h_v", kDamping, 0.0, kNonNegative, "LuGre viscous damping"},
+      contact::kHt,
+      contact::kHv,
   };
   static constexpr Constraint kConstraints[] = {{"F_S", "F_C"}};
   static constexpr int kStates = 1;
+  /// One of the seed's four models: every study spec's canonical form carries its parameters
+  /// (registry.h, ModelTraits::in_every_canonical_spec).
+  static constexpr bool kInEveryCanonicalSpec = true;
 
   double k_t, h_t, h_v, F_C, F_S, v_s;
   double inv_vs2;  // 1 / v_s^2 [s^2/m^2]

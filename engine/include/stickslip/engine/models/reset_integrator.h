@@ -34,6 +34,9 @@ struct ResetIntegrator {
       {"beta", kDamping, 4.869e3, kNonNegative, "Reset Integrator damping"},
   };
   static constexpr int kStates = 1;
+  /// One of the seed's four models: every study spec's canonical form carries its parameters
+  /// (registry.h, ModelTraits::in_every_canonical_spec).
+  static constexpr bool kInEveryCanonicalSpec = true;
 
   double k_t, beta, s0, alpha;
 
