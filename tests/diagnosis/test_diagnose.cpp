@@ -6,8 +6,8 @@
 // held-out gain and its size parameter recovered within the case's tolerance (30-40 %); clean
 // data (white and AR(1) noise, base parameters 5-10 % off Table 1) must give "none" with an
 // adequate base; an effect too small to see must not be named as a wrong cause. Default CI: the
-// short datasets, one seed, every catalogue effect and the white null, each against its rival
-// candidate (HiddenCase::ci_candidates). STICKSLIP_DIAG_LONG=1: every case (clean_ar1 and the
+// short datasets, one seed, every catalogue effect against its own candidate and the white null
+// against viscous and waviness (HiddenCase::ci_candidates). STICKSLIP_DIAG_LONG=1: every case (clean_ar1 and the
 // small effects too) against the whole catalogue on 2 seeds; STICKSLIP_DIAGNOSE_SUITE=full: the
 // full datasets (3 runs x 7 s at 2 kHz, every base model), 3 seeds per case. The randomised
 // suite: test_diagnose_random.cpp; bench/diagnose_suite prints the confusion tables.
@@ -125,7 +125,7 @@ void run_case(const HiddenCase& c) {
   for (int s = 0; s < seeds; ++s) {
     const SuiteDatasets family = full ? SuiteDatasets::kFull : SuiteDatasets::kCi;
     // The whole-run folds are reported, not judged (tested in test_diagnose_report.cpp):
-    // left out here for CI time. Default CI: the case against its rivals only.
+    // left out here for CI time. Default CI: the case against ci_candidates only.
     DiagnoseOptions o = hidden_case_options(family);
     o.whole_run_holdout = false;
     if (!long_run) o.candidates = c.ci_candidates;

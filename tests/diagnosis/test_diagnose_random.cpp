@@ -47,7 +47,9 @@ TEST(RandomSuite, EveryCaseDrawsItsNumbersWithinTheStatedRangesReproducibly) {
       EXPECT_GE(drawn(a[i], "noise"), 0.02);
       EXPECT_LE(drawn(a[i], "noise"), 0.05);
       EXPECT_EQ(a[i].data.model.extension.kind, a[i].kind);
-      if (a[i].kind != engine::ExtensionKind::kNone) EXPECT_FALSE(a[i].judged.empty()) << a[i].name;
+      if (a[i].kind != engine::ExtensionKind::kNone) {
+        EXPECT_FALSE(a[i].judged.empty()) << a[i].name;
+      }
       if (family == RandomFamily::kSeed) {
         ASSERT_EQ(a[i].data.runs.size(), 3u);
         EXPECT_EQ(a[i].data.runs[2].va, 4e-3);

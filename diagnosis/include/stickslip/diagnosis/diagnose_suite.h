@@ -31,10 +31,9 @@ struct HiddenCase {
   bool small = false;   ///< too small to see: "none" or the right cause, never a wrong one
   double noise = 0.03;  ///< [N]
   double noise_rho = 0; ///< AR(1) coefficient [-]
-  /// Runs in default CI, on one seed, against its rivals only (ci_candidates: the effect itself,
-  /// or for a null, and the candidates that competed with it most on the suite); every case runs
-  /// against the whole catalogue on two seeds with STICKSLIP_DIAG_LONG=1 (or
-  /// STICKSLIP_DIAGNOSE_SUITE; docs/diagnose.md "Tests").
+  /// Runs in default CI, on one seed, against ci_candidates only (an effect: its own candidate;
+  /// a null: viscous and waviness); every case runs against the whole catalogue on two seeds
+  /// with STICKSLIP_DIAG_LONG=1 (or STICKSLIP_DIAGNOSE_SUITE; docs/diagnose.md "Tests").
   bool in_ci = false;
   std::vector<engine::ExtensionKind> ci_candidates = {};
   /// Further parameters of the hidden effect (engine names, SI), e.g. {"load_phi", 1.0}.
