@@ -181,7 +181,8 @@ void run_plots(const Diagnosis& d, const std::filesystem::path& dir, std::ostrea
     }
     files.push_back((dir / dat).string());
     gp << "set output '" << "run" << k + 1 << ".png'\nset multiplot layout 2,1 title "
-       << gp_str(s.name + ": measured vs " + to_string(d.base_model) + " and + " + ext_label) << "\n"
+       << gp_str(s.name + ": measured vs " + to_string(d.base_model) + " and + " + ext_label)
+       << " noenhanced\n"  // names hold underscores, not subscripts
        << "set ylabel 'F_d [N]'\nplot '" << dat << "' u 1:2 w l lc 'gray' t 'measured', '' u 1:3 w l lc 'blue' t 'base', '' u 1:4 w l lc 'red' t 'extended'\n"
        << "set ylabel 'residual [N]'\nset xlabel 't [s]'\nplot '" << dat << "' u 1:5 w l lc 'blue' t 'base', '' u 1:6 w l lc 'red' t 'extended'\n"
        << "unset multiplot\nunset xlabel\n";
@@ -241,7 +242,7 @@ void evidence_plots(const Diagnosis& d, const std::filesystem::path& dir, std::o
      << "set multiplot layout 2,3 title "
      << gp_str(std::string("evidence: residuals of ") + to_string(d.base_model) + " (blue) and + " +
                ext_label + " (red); named cause: " + d.cause)
-     << "\n";
+     << " noenhanced\n";
   for (int i = 0; i < 6; ++i) {
     const Panel& p = panels[i];
     if (!have[i]) {

@@ -56,9 +56,11 @@ std::string plot_script(const RunValidation& r, const Validation& v, const std::
   std::ostringstream g;
   g << "set terminal pngcairo size 1400,900\nset output " << gp_str(stem + ".png") << "\nset grid\n"
     << "set datafile separator ','\nset key outside top center horizontal\n"
+    // One script plots every run: the previous run's zoom and labels must not carry over.
+    << "unset xlabel\nset autoscale x\n"
     << "set multiplot layout 2,1 title " << gp_str(r.run + ": measured vs " + engine::to_string(v.base.model) +
                                                     " and " + ext + " (calibrated on " + v.diagnosis_dataset + ")")
-    << "\nset ylabel 'F_d [N]'\n"
+    << " noenhanced\nset ylabel 'F_d [N]'\n"  // the title's names hold underscores
     << "plot " << gp_str(stem + ".csv") << " every " << every << "::1 u 1:2 w l lc 'gray' t 'measured', '' every "
     << every << "::1 u 1:3 w l lc 'blue' t 'base', '' every " << every << "::1 u 1:4 w l lc 'red' t 'extended'\n"
     << "set xlabel 't [s]'\nset xrange [0:" << zoom << "]\n"
