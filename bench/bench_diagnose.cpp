@@ -41,9 +41,10 @@ int main(int argc, char** argv) {
   if (!via_csv.empty()) data = measured::load_measured(measured::write_dataset(data, via_csv));
   const double t_synth = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const diagnosis::Diagnosis d = diagnosis::diagnose(data, diagnosis::DiagnoseOptions{});
-  std::printf("synth: %.1f s; diagnose (3 x 20 s at 2 kHz, 4 models, 8 candidates): %.1f s wall, "
-              "%d model evaluations (target <= 180 s)\n",
-              t_synth, d.seconds, d.evaluations);
+  std::printf("synth: %.1f s; diagnose (3 x 20 s at 2 kHz, %zu models, %zu candidates): %.1f s "
+              "wall, %d model evaluations (target <= 180 s)\n",
+              t_synth, d.options.models.size(), d.options.candidates.size(), d.seconds,
+              d.evaluations);
   std::cout << diagnosis::summary_text(d);
   // Where the evaluations went (the candidates run two at a time, the base models too).
   std::printf("evaluations:");

@@ -5,6 +5,10 @@
 // cause, counts over seeds).
 //
 //   diagnose_suite [--full | --seed-conditions] [--verbose] [--seeds N] [--first-seed K] [--case NAME]...
+//   diagnose_suite --random [--family seed|short] [--seeds N] [--first-seed K] [--case PREFIX]...
+//                  [--lugre-only] [--ranges]
+//   --random: the randomised suite (random_cases in stickslip/diagnosis/diagnose_suite.h): every
+//   catalogue effect and two nulls per seed, every drawn number printed; seeds K ... K + N - 1.
 //   --full: the full datasets (3 runs x 7 s at 2 kHz, every base model); --seed-conditions: the
 //   seed's conditions for every case (3 runs x 20 s, v_a = 0, 1.1, 4 mm/s, LuGre base);
 //   default: the CI datasets (SuiteDatasets in stickslip/diagnosis/diagnose_suite.h).
@@ -19,9 +23,77 @@
 
 #include "stickslip/engine/simulate.h"
 #include "stickslip/diagnosis/diagnose_suite.h"
+#include "stickslip/measured/synth.h"
 
 using namespace stickslip;
 using namespace stickslip::diagnosis;
+
+namespace {
+
+/// The randomised suite: one line per case (drawn numbers, named cause, recovered size, base fit
+/// against the noise), the confusion table and the recovered parameters.
+int random_suite(int first, int seeds, RandomFamily family, const std::vector<std::string>& only,
+                 bool lugre_only, bool verbose) {
+  std::vector<std::string> causes = {"none"};
+  for (engine::ExtensionKind k : engine::extension_catalogue()) causes.push_back(to_string(k));
+  std::map<std::string, std::map<std::string, int>> table;
+  std::vector<std::string> rows;
+  int passed = 0, total = 0, base_ok = 0, nulls = 0;
+  double seconds = 0;
+  for (int s = first; s < first + seeds; ++s) {
+    for (const RandomCase& c : random_cases(static_cast<std::uint64_t>(s), family)) {
+      const std::string row = c.name.substr(0, c.name.find('#'));
+      bool wanted = only.empty();
+      for (const auto& o : only) wanted = wanted || c.name.rfind(o, 0) == 0;
+      if (!wanted) continue;
+      if (std::find(rows.begin(), rows.end(), row) == rows.end()) rows.push_back(row);
+      DiagnoseOptions o;
+      if (lugre_only) o.models = {engine::model_kind<engine::LuGre>};
+      o.whole_run_holdout = false;
+      const Diagnosis d = diagnose(measured::synthesize(c.data), o);
+      const HiddenVerdict v = judge(c, d);
+      ++table[row][d.cause];
+      ++total;
+      passed += v.ok();
+      seconds += d.seconds;
+      double fit = 0, held = 0;
+      for (const auto& cal : d.calibrations)
+        if (cal.model == d.base_model) fit = cal.rmse_fit, held = cal.rmse_heldout;
+      if (c.kind == engine::ExtensionKind::kNone) {
+        ++nulls;
+        base_ok += held <= 1.5 * c.data.noise_sigma;
+      }
+      std::printf("%-28s named %-22s %-8s %s %.4g (true %.4g) base %s fit %.4f held %.4f noise %.3f rho %.2f %.0f s %s\n",
+                  c.name.c_str(), d.cause.c_str(), d.adequacy.verdict.c_str(), c.judged.c_str(), v.recovered,
+                  v.truth, to_string(d.base_model), fit, held, c.data.noise_sigma, c.data.noise_rho, d.seconds,
+                  v.ok() ? "ok" : "NO");
+      if (verbose) {
+        std::printf("  drawn:");
+        for (const auto& [n, x] : c.drawn) std::printf(" %s=%.4g", n.c_str(), x);
+        std::printf("\n%s", summary_text(d).c_str());
+      }
+      std::fflush(stdout);
+    }
+  }
+  std::printf("\nConfusion table (rows: hidden effect; columns: named cause; counts over seeds %d-%d)\n", first,
+              first + seeds - 1);
+  const char* abbrev[] = {"none", "visc", "strib", "dwell", "wavi", "drift", "load", "sensor", "damp"};
+  std::printf("| %-22s |", "case");
+  for (const char* a : abbrev) std::printf(" %6s |", a);
+  std::printf("\n|%s|", std::string(24, '-').c_str());
+  for (std::size_t i = 0; i < causes.size(); ++i) std::printf("%s|", std::string(8, '-').c_str());
+  std::printf("\n");
+  for (const auto& r : rows) {
+    std::printf("| %-22s |", r.c_str());
+    for (const auto& k : causes) std::printf(" %6d |", table[r][k]);
+    std::printf("\n");
+  }
+  std::printf("\n%d of %d diagnoses met every requirement; base held-out RMSE within 1.5 x noise on %d of %d "
+              "nulls; %.0f s diagnosing in all\n", passed, total, base_ok, nulls, seconds);
+  return passed == total ? 0 : 1;
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
   diagnosis::SuiteDatasets family = diagnosis::SuiteDatasets::kCi;
@@ -39,7 +111,20 @@ int main(int argc, char** argv) {
   app.add_option("--seeds", seeds, "number of seeds")->type_name("N");
   app.add_option("--first-seed", first, "seeds 1000 + K ...")->type_name("K");
   app.add_option("--case", only, "only this case (repeatable)")->type_name("NAME");
+  bool random = false, lugre_only = false, ranges = false;
+  std::string random_family = "seed";
+  app.add_flag("--random", random, "the randomised suite (issue 21 item 8)");
+  app.add_option("--family", random_family, "with --random: seed (3 x 20 s) or short")->capture_default_str();
+  app.add_flag("--lugre-only", lugre_only, "with --random: calibrate LuGre only (default: every model)");
+  app.add_flag("--ranges", ranges, "print the randomised suite's ranges");
   CLI11_PARSE(app, argc, argv);
+  if (ranges) {
+    std::printf("%s", random_suite_ranges().c_str());
+    return 0;
+  }
+  if (random)
+    return random_suite(first, seeds, random_family == "short" ? RandomFamily::kShort : RandomFamily::kSeed, only,
+                        lugre_only, verbose);
   if (full) family = diagnosis::SuiteDatasets::kFull;
   if (seed_conditions) family = diagnosis::SuiteDatasets::kSeed;
   if (time_sim) {  // cost of one fitting simulation per v_a

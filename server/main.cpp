@@ -23,6 +23,7 @@
 #include "stickslip/common/text.h"
 #include "stickslip/server/api.h"
 #include "stickslip/server/diagnosis_worker.h"
+#include "stickslip/server/validation_worker.h"
 #include "stickslip/server/http_server.h"
 #include "stickslip/server/worker.h"
 #include "stickslip/store/writer_lock.h"
@@ -157,6 +158,7 @@ void finish_options(Daemon& o) {
   o.api.study_cache_ttl = std::chrono::milliseconds(o.study_cache_ms);
   o.net.max_body_bytes = o.api.max_body_bytes;
   o.net.path_body_limits["/v1/diagnoses"] = o.api.max_diagnosis_body_bytes;
+  o.net.path_body_limits["/v1/validations"] = o.api.max_diagnosis_body_bytes;
   o.api.diagnosis_threads = o.diag.threads;
   o.diag.nice = o.work.nice;
   o.net.read_timeout = std::chrono::seconds(o.read_timeout_s);
@@ -188,9 +190,15 @@ int serve(Daemon& o, const sigset_t& signals) {
   auto health = std::make_shared<server::Health>();
   server::Worker worker(o.api.db, o.work, &studies::run_study, health);
   server::DiagnosisWorker diagnoses(o.api.db, o.diag, &server::run_diagnosis, health);
+  // Validations (POST /v1/validations) run on their own worker thread, with the diagnoses'
+  // threads and nice value.
+  server::ValidationWorkerOptions val;
+  val.threads = o.diag.threads;
+  val.nice = o.diag.nice;
+  server::ValidationWorker validations(o.api.db, val, health);
   // Opens the store: takes its writer lock (a store has one writer; another holder is named
   // in the error, exit 1) and checks a damaged file before anything is written to it.
-  server::Api handlers(o.api, &worker, &diagnoses, health);
+  server::Api handlers(o.api, &worker, &diagnoses, health, &validations);
   store::WriterLock lock = store::WriterLock::acquire(o.api.db, "stickslipd");
   server::HttpServer http(
       o.net, [&handlers](const server::Request& r) { return handlers.handle(r); },
@@ -204,6 +212,7 @@ int serve(Daemon& o, const sigset_t& signals) {
   http.start();
   worker.start();
   diagnoses.start();
+  validations.start();
 
   int sig = 0;
   sigwait(&signals, &sig);
@@ -211,7 +220,8 @@ int serve(Daemon& o, const sigset_t& signals) {
                sig == SIGTERM ? "SIGTERM" : "SIGINT");
   http.stop_accepting();
   worker.shutdown();
-  const bool diagnosis_ended = diagnoses.shutdown(std::chrono::seconds(o.diagnosis_grace_s));
+  const bool diagnosis_ended = diagnoses.shutdown(std::chrono::seconds(o.diagnosis_grace_s)) &
+                               validations.shutdown(std::chrono::seconds(o.diagnosis_grace_s));
   http.stop();
   if (!diagnosis_ended) {
     // The running diagnosis cannot be interrupted and is already back in the queue; its

@@ -15,6 +15,7 @@ int run(int argc, char** argv, std::shared_ptr<studies::Executor> mpi) {
   add_synth_command(app, exit_code);
   add_diagnose_command(app, exit_code);
   add_diagnosis_command(app, exit_code);
+  add_validate_command(app, exit_code);
   add_table_command(app, exit_code);
   add_study_command(app, exit_code, mpi);
   add_store_command(app, exit_code);

@@ -4,8 +4,10 @@
 #include <iostream>
 
 #include "diagnose_remote.h"
+#include "progress_printer.h"
 #include "stickslip/client/cli.h"
 #include "stickslip/diagnosis/diagnose.h"
+#include "stickslip/engine/registry.h"
 
 namespace stickslip::client {
 namespace {
@@ -17,6 +19,7 @@ struct DiagnoseArgs {
   // --server
   std::string server, idempotency_key;
   bool wait = false, json_output = false;
+  bool quiet = false;
 };
 
 int run_diagnose(DiagnoseArgs& a) {
@@ -40,6 +43,7 @@ int run_diagnose(DiagnoseArgs& a) {
     std::cerr << "stickslip diagnose: " << e.what() << "\n";
     return kBadInput;
   }
+  a.opt.progress = progress_printer(a.quiet, &a.opt.progress_interval);
   try {
     const diagnosis::Diagnosis d = diagnosis::diagnose(data, a.opt);
     const auto files = diagnosis::write_report(d, a.out);
@@ -58,8 +62,9 @@ void add_diagnose_command(CLI::App& app, int& exit_code) {
   auto a = std::make_shared<DiagnoseArgs>();
   CLI::App* cmd = app.add_subcommand(
       "diagnose",
-      "Calibrate the friction models on a measured dataset, test every catalogue extension "
-      "against the refitted base on held-out data, and name the cause (writes "
+      "Calibrate every base model on a measured dataset (scale-free, on the samples or on the "
+      "statistics of the stick-slip), judge whether the best reproduces the record, test every "
+      "catalogue extension against it on held-out data, and name the cause (writes "
       "DIR/diagnosis.json and plots); with --server, run it as a job on stickslipd");
   cmd->add_option("manifest", a->manifest, "measured-data manifest (JSON)")->required();
   cmd->add_option("--out", a->out, "output directory (with --server: written after --wait)");
@@ -80,6 +85,7 @@ void add_diagnose_command(CLI::App& app, int& exit_code) {
   auto* evals_fold = cmd->add_option("--max-evals-fold", a->opt.max_evals_fold,
                                      "objective evaluations per left-out-run refit")->capture_default_str();
   cmd->add_option("--threads", a->opt.threads, "OpenMP threads (0 = default; local only)")->capture_default_str();
+  cmd->add_flag("--quiet", a->quiet, "no progress on stderr (the phase, models or candidates, evaluations, time left)");
   cmd->add_option("--server", a->server,
                   "run on this stickslipd (token: $STICKSLIP_TOKEN): sends the manifest and its "
                   "CSVs, prints the diagnosis id");

@@ -32,32 +32,6 @@ std::string slurp(const fs::path& path, const std::string& what) {
   return ss.str();
 }
 
-Remote make_remote(const std::string& server) {
-  const char* token = std::getenv("STICKSLIP_TOKEN");
-  return Remote(ServerUrl::parse(server), token != nullptr ? token : "");
-}
-
-int guarded(const std::function<int()>& body) {
-  try {
-    return body();
-  } catch (const ApiError& e) {
-    std::cerr << "stickslip: " << e.what() << "\n";
-    return e.exit_code();
-  } catch (const UnreachableError& e) {
-    std::cerr << "stickslip: server unreachable: " << e.what() << "\n";
-    return kUnreachable;
-  } catch (const measured::MeasuredError& e) {
-    std::cerr << "stickslip diagnose: " << e.what() << "\n";
-    return kBadInput;
-  } catch (const std::invalid_argument& e) {
-    std::cerr << "stickslip: " << e.what() << "\n";
-    return kBadInput;
-  } catch (const std::exception& e) {
-    std::cerr << "stickslip: " << e.what() << "\n";
-    return kFailure;
-  }
-}
-
 std::string number(const json& v) {
   if (!v.is_number()) return "-";
   char buf[32];
@@ -109,6 +83,32 @@ int wait_and_report(Remote& remote, const std::string& id, bool json_output,
 
 }  // namespace
 
+Remote make_remote(const std::string& server) {
+  const char* token = std::getenv("STICKSLIP_TOKEN");
+  return Remote(ServerUrl::parse(server), token != nullptr ? token : "");
+}
+
+int guarded_remote(const std::function<int()>& body) {
+  try {
+    return body();
+  } catch (const ApiError& e) {
+    std::cerr << "stickslip: " << e.what() << "\n";
+    return e.exit_code();
+  } catch (const UnreachableError& e) {
+    std::cerr << "stickslip: server unreachable: " << e.what() << "\n";
+    return kUnreachable;
+  } catch (const measured::MeasuredError& e) {
+    std::cerr << "stickslip diagnose: " << e.what() << "\n";
+    return kBadInput;
+  } catch (const std::invalid_argument& e) {
+    std::cerr << "stickslip: " << e.what() << "\n";
+    return kBadInput;
+  } catch (const std::exception& e) {
+    std::cerr << "stickslip: " << e.what() << "\n";
+    return kFailure;
+  }
+}
+
 json diagnosis_request_from_files(const std::string& manifest, const json& options) {
   const std::string text = slurp(manifest, "manifest");
   std::vector<common::SpecError> errors;
@@ -134,7 +134,7 @@ json diagnosis_request_from_files(const std::string& manifest, const json& optio
 }
 
 int remote_diagnose(const RemoteDiagnoseArgs& a) {
-  return guarded([&]() -> int {
+  return guarded_remote([&]() -> int {
     // The local checks first: their messages name the files on this machine.
     measured::load_measured(a.manifest);
     const json request = diagnosis_request_from_files(a.manifest, a.options);
@@ -169,7 +169,7 @@ void add_diagnosis_command(CLI::App& app, int& exit_code) {
   cmd->add_option("--out", a->out, "once succeeded, write DIR/diagnosis.json");
   cmd->add_flag("--json", a->json_output, "machine-readable JSON on stdout");
   cmd->callback([a, &exit_code] {
-    exit_code = guarded([&]() -> int {
+    exit_code = guarded_remote([&]() -> int {
       Remote remote = make_remote(a->server);
       if (a->cancel) {
         const json d = remote.cancel_diagnosis(a->id);

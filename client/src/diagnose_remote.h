@@ -1,5 +1,6 @@
 #pragma once
 // `stickslip diagnose MANIFEST --server URL` and `stickslip diagnosis ID` (private to the client).
+#include <functional>
 #include <string>
 
 #include <CLI/CLI.hpp>
@@ -23,6 +24,13 @@ struct RemoteDiagnoseArgs {
 /// whose files have the same base name.
 nlohmann::json diagnosis_request_from_files(const std::string& manifest,
                                             const nlohmann::json& options);
+
+/// A Remote for the server URL with $STICKSLIP_TOKEN.
+class Remote;
+Remote make_remote(const std::string& server);
+
+/// Runs body and turns the remote commands' errors into exit codes (cli.h), each printed.
+int guarded_remote(const std::function<int()>& body);
 
 /// Submits (and with wait, waits for) a diagnosis; returns the exit code.
 int remote_diagnose(const RemoteDiagnoseArgs& args);

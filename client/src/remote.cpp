@@ -135,9 +135,16 @@ json Remote::wait(const std::string& id, double interval_s,
 }
 
 json Remote::submit_diagnosis(const std::string& request_json, const std::string& idempotency_key) {
+  return submit_job("/v1/diagnoses", request_json, idempotency_key);
+}
+
+json Remote::diagnosis(const std::string& id) { return job("/v1/diagnoses", id); }
+
+json Remote::submit_job(const std::string& collection, const std::string& request_json,
+                        const std::string& idempotency_key) {
   HttpCall c;
   c.method = "POST";
-  c.target = "/v1/diagnoses";
+  c.target = collection;
   c.body = request_json;
   c.headers = {{"Content-Type", "application/json"}};
   c.timeout = std::chrono::seconds(300);  // the body may be tens of MB
@@ -145,8 +152,26 @@ json Remote::submit_diagnosis(const std::string& request_json, const std::string
   return parse_reply(call(c, {202}));
 }
 
-json Remote::diagnosis(const std::string& id) {
-  return parse_reply(call({"GET", "/v1/diagnoses/" + id, "", {}, std::chrono::seconds(30)}));
+json Remote::job(const std::string& collection, const std::string& id) {
+  return parse_reply(call({"GET", collection + "/" + id, "", {}, std::chrono::seconds(30)}));
+}
+
+json Remote::wait_job(const std::string& collection, const std::string& id, double interval_s,
+                      const std::function<void(const json&)>& on_change) {
+  std::string last;
+  while (true) {
+    json d = job(collection, id);
+    const std::string state = d.value("state", std::string());
+    const std::string now = state + (d.contains("progress") ? d["progress"].dump() : "");
+    if (now != last && on_change) on_change(d);
+    last = now;
+    if (is_terminal(state)) return d;
+    std::this_thread::sleep_for(std::chrono::duration<double>(interval_s));
+  }
+}
+
+std::string Remote::get_text(const std::string& target) {
+  return call({"GET", target, "", {}, std::chrono::seconds(120)}).body;
 }
 
 json Remote::cancel_diagnosis(const std::string& id) {
@@ -158,15 +183,7 @@ json Remote::cancel_diagnosis(const std::string& id) {
 
 json Remote::wait_diagnosis(const std::string& id, double interval_s,
                             const std::function<void(const json&)>& on_change) {
-  std::string last;
-  while (true) {
-    json d = diagnosis(id);
-    const std::string state = d.value("state", std::string());
-    if (state != last && on_change) on_change(d);
-    last = state;
-    if (is_terminal(state)) return d;
-    std::this_thread::sleep_for(std::chrono::duration<double>(interval_s));
-  }
+  return wait_job("/v1/diagnoses", id, interval_s, on_change);
 }
 
 }  // namespace stickslip::client

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <cstddef>
 #include <stdexcept>
 #include <string>
@@ -12,6 +13,7 @@
 
 #include "stickslip/diagnosis/detail/diagnose_load.h"
 #include "diagnose_sensor.h"
+#include "stickslip/diagnosis/detail/diagnose_progress.h"
 #include "stickslip/diagnosis/detail/diagnose_starts.h"
 
 namespace stickslip::diagnosis::detail {
@@ -31,7 +33,7 @@ std::vector<double> dwell_origin(const FitModel& base, std::vector<double> theta
   std::size_t iS = theta.size(), iR = theta.size();
   for (std::size_t j = 0; j < base.specs.size() && j < theta.size(); ++j) {
     if (base.specs[j].name == "F_S") iS = j;
-    if (base.specs[j].name == "F_C/F_S") iR = j;
+    if (const auto r = ratio_parts(base.specs[j].name); r && r->first == "F_C") iR = j;
   }
   if (iS >= theta.size() || !(period > 0) || !(tau > 0)) return theta;
   const double F_S = theta[iS];
@@ -53,8 +55,11 @@ std::vector<double> slip_velocity_origin(const FitModel& base, std::vector<doubl
                                          double c, double v_slip) {
   for (std::size_t j = 0; j < base.specs.size() && j < theta.size(); ++j) {
     if (base.specs[j].name == "F_C") theta[j] = std::max(theta[j] - c * v_slip, 0.5 * theta[j]);
-    if (base.specs[j].name == "F_C/F_S")
-      theta[j] = std::max(theta[j] - c * v_slip / theta[0], base.specs[j].lo);
+    const auto r = ratio_parts(base.specs[j].name);
+    if (!r || r->first != "F_C") continue;
+    for (std::size_t i = 0; i < base.specs.size() && i < theta.size(); ++i)
+      if (base.specs[i].name == r->second)  // F_C as a fraction of its denominator (F_S)
+        theta[j] = std::max(theta[j] - c * v_slip / theta[i], base.specs[j].lo);
   }
   return theta;
 }
@@ -91,14 +96,33 @@ double next_profile_size(const std::vector<ProfilePoint>& p) {
   return std::fabs(s - b) > 0.05 * std::max(b, n->size) ? s : 0.0;
 }
 
+/// The fixed starting grids of the extensions, at Table 1's scale (empty: starts from the
+/// record, extension_starts).
+std::vector<std::vector<double>> fixed_extension_starts(engine::ExtensionKind k) {
+  switch (k) {
+    case engine::ExtensionKind::kViscous: return {{0.0}, {20.0}, {60.0}, {150.0}};
+    case engine::ExtensionKind::kStribeckShape: return {{2.0}, {1.0}, {4.0}};
+    case engine::ExtensionKind::kDwellTime: return {{0.0, 0.1}, {0.3, 0.1}, {1.0, 0.1}, {0.3, 1.0}};
+    case engine::ExtensionKind::kNormalLoadModulation:
+      // (eta_v, eta_q), diagnose_load.h: the observed levels are linear in them, so the
+      // feature LM needs no phase scan; one start per sign of each component.
+      return {{0.0, 0.0}, {0.1, 0.0}, {-0.1, 0.0}, {0.0, 0.1}, {0.0, -0.1}};
+    case engine::ExtensionKind::kSensorDynamics: return {{2e-3, 0.7}, {1e-3, 0.3}, {5e-3, 1.0}, {5e-3, 0.3}};
+    case engine::ExtensionKind::kDriveDamping: return {{0.0}, {10.0}, {30.0}, {80.0}};
+    default: return {};
+  }
+}
+
+/// The starting sizes of an extension. The fixed grids are written at Table 1's scale and moved
+/// to the record's (scaled_extension_value); the waviness and drift starts come from the record.
 std::vector<std::vector<double>> extension_starts(engine::ExtensionKind k, const std::vector<ParamSpec>& specs,
                                                   const Evidence& ev, const SineScan& scan,
-                                                  double F_C0) {
-  std::vector<std::vector<double>> s;
+                                                  double F_C0, const RecordScales& scales) {
+  std::vector<std::vector<double>> s = fixed_extension_starts(k);
+  for (auto& start : s)
+    for (std::size_t j = 0; j < start.size() && j < specs.size(); ++j)
+      start[j] = scaled_extension_value(specs[j].name, start[j], scales);
   switch (k) {
-    case engine::ExtensionKind::kViscous: s = {{0.0}, {20.0}, {60.0}, {150.0}}; break;
-    case engine::ExtensionKind::kStribeckShape: s = {{2.0}, {1.0}, {4.0}}; break;
-    case engine::ExtensionKind::kDwellTime: s = {{0.0, 0.1}, {0.3, 0.1}, {1.0, 0.1}, {0.3, 1.0}}; break;
     case engine::ExtensionKind::kWaviness: {
       // The three strongest local maxima of the residual spectrum against x.
       std::vector<std::size_t> peaks;
@@ -120,36 +144,70 @@ std::vector<std::vector<double>> extension_starts(engine::ExtensionKind k, const
     case engine::ExtensionKind::kDrift:
       s = {{0.0}, {std::clamp(ev.trend_per_m / F_C0, -39.0, 39.0)}};
       break;
-    case engine::ExtensionKind::kNormalLoadModulation:
-      // (eta_v, eta_q), diagnose_load.h: the observed levels are linear in them, so the
-      // feature LM needs no phase scan; one start per sign of each component.
-      s = {{0.0, 0.0}, {0.1, 0.0}, {-0.1, 0.0}, {0.0, 0.1}, {0.0, -0.1}};
-      break;
-    case engine::ExtensionKind::kSensorDynamics:
-      s = {{2e-3, 0.7}, {1e-3, 0.3}, {5e-3, 1.0}, {5e-3, 0.3}};
-      break;
-    case engine::ExtensionKind::kDriveDamping: s = {{0.0}, {10.0}, {30.0}, {80.0}}; break;
-    case engine::ExtensionKind::kNone: break;
+    default: break;
   }
   return s;
 }
 
-/// Fit RMSE, held-out RMSE, n_eff and AIC of a candidate from its scoring evaluation c.full.
-void score_candidate(const Problem& P, CandFit& c) {
-  c.sse_fit = c.full.sse_fit;
-  c.res.offset = c.full.offset;
-  c.res.rmse_fit = rms(c.full.sse_fit, c.full.n_fit);
-  c.res.rmse_heldout = rms(c.full.sse_held, c.full.n_held);
-  const double rho = lag1(P, c.full);
-  c.n_eff = std::max(static_cast<double>(c.full.n_fit) * (1 - rho) / (1 + rho), 10.0);
-  c.res.aic = c.n_eff * std::log(c.full.sse_fit / c.full.n_fit) + 2.0 * c.theta.size();
-}
 
 /// The starting points of a candidate's phase A (all) and those with v_s held at its nominal
 /// value (held: phase A runs a second feature fit from them).
 struct Starts {
   std::vector<std::vector<double>> all, held;
 };
+
+/// Viscous friction and drive damping both add force in proportion to the slip velocity. A base
+/// without them absorbs that force by a raised F_C and a v_s far below its true value (hidden
+/// sigma2 = 60 N s/m: v_s 7.2e-5 for 3.2e-4 m/s), and the feature objective has a false minimum
+/// there: refitted from the base optimum with the size held, v_s runs to its lower bound. So
+/// these also get a second profile start with v_s held at its nominal value (the spec's start)
+/// and the other base parameters refitted (pm: the base with the extension held at es); phase B
+/// then picks the better start by the time-domain objective.
+void held_vs_start(const CandidateInputs& in, const FitModel& pm, const std::vector<double>& origin,
+                   const std::vector<double>& es, int* evals, Starts* s) {
+  const BaseFit& base = in.base;
+  const std::size_t nb = base.theta.size();
+  std::size_t iv = nb;
+  for (std::size_t j = 0; j < nb; ++j)
+    if (base.model.specs[j].name == "v_s") iv = j;
+  if (iv >= nb) return;
+  FitModel hm = pm;
+  engine::set_parameter(hm.base, "v_s", base.model.specs[iv].init);
+  hm.specs.erase(hm.specs.begin() + static_cast<std::ptrdiff_t>(iv));
+  std::vector<double> h0 = origin;
+  h0.erase(h0.begin() + static_cast<std::ptrdiff_t>(iv));
+  const FitResult hr = fit(in.P, hm, {h0}, Span::kFeatures, 0, in.o.max_evals_profile);
+  *evals += hr.evals;
+  if (!hr.ok) return;
+  std::vector<double> th2 = hr.theta;
+  th2.insert(th2.begin() + static_cast<std::ptrdiff_t>(iv), base.model.specs[iv].init);
+  th2.insert(th2.end(), es.begin(), es.end());
+  s->all.push_back(th2);
+  s->held.push_back(th2);
+}
+
+/// The size grid is coarse (20, 60, 150; dwell A 0.3, 1) and the profile's minimum narrow on long
+/// still stages: refine it by bisection between the best size and its better neighbour, the
+/// other parameters (dwell_tau) held at the best point's; each new point is a start.
+template <class Held, class Shifted>
+void bisect_profile(const CandidateInputs& in, const Held& held_model, const Shifted& shifted_origin,
+                    std::vector<ProfilePoint>* profiles, int* evals, Starts* s) {
+  for (int step = 0; step < 3; ++step) {
+    const double size = next_profile_size(*profiles);
+    if (!(size > 0)) break;
+    const ProfilePoint best = best_profile(*profiles);  // a copy: profiles grows below
+    std::vector<double> es = {size};
+    es.insert(es.end(), best.rest.begin(), best.rest.end());
+    const FitResult pr = fit(in.P, held_model(es), {best.theta, shifted_origin(es)}, Span::kFeatures, 0,
+                             in.o.max_evals_profile);
+    *evals += pr.evals;
+    if (!pr.ok) break;
+    profiles->push_back({size, pr.sse, pr.theta, best.rest});
+    std::vector<double> th = pr.theta;
+    th.insert(th.end(), es.begin(), es.end());
+    s->all.push_back(th);
+  }
+}
 
 /// Starting points of the candidate `kind` (full theta: base parameters, then ext's). Effects
 /// that act on the slip itself (viscous, drive damping, Stribeck shape, dwell time) change the
@@ -163,11 +221,12 @@ Starts candidate_starts(const CandidateInputs& in, engine::ExtensionKind kind,
   const BaseFit& base = in.base;
   const DiagnoseOptions& o = in.o;
   const std::size_t nb = base.theta.size();
+  const std::vector<double>& origin = in.origin.empty() ? base.theta : in.origin;
   Starts s;
   const bool slip_force = kind == engine::ExtensionKind::kViscous || kind == engine::ExtensionKind::kDriveDamping;
   const bool profile = slip_force ||
                        kind == engine::ExtensionKind::kStribeckShape || kind == engine::ExtensionKind::kDwellTime;
-  auto ext_starts = extension_starts(kind, ext, in.ev, in.scan, in.F_C0);
+  auto ext_starts = extension_starts(kind, ext, in.ev, in.scan, in.F_C0, in.scales);
   bool wave_profile = false;
   if (kind == engine::ExtensionKind::kWaviness) {
     // The residual spectrum is slip-timing noise when the base misses slips: starts from the
@@ -190,18 +249,18 @@ Starts candidate_starts(const CandidateInputs& in, engine::ExtensionKind kind,
     return pm;
   };
   const auto shifted_origin = [&](const std::vector<double>& es) {
-    return slip_force ? slip_velocity_origin(base.model, base.theta, es[0], in.v_slip)
-                      : dwell_origin(base.model, base.theta, es[0], es[1], in.still_period);
+    return slip_force ? slip_velocity_origin(base.model, origin, es[0], in.v_slip)
+                      : dwell_origin(base.model, origin, es[0], es[1], in.still_period);
   };
   const std::vector<double> neutral_ext = neutral_extension(kind);
   std::vector<ProfilePoint> profiles = {
-      {neutral_ext[0], in.base_feature_sse, base.theta, {neutral_ext.begin() + 1, neutral_ext.end()}}};
+      {neutral_ext[0], in.base_feature_sse, origin, {neutral_ext.begin() + 1, neutral_ext.end()}}};
   for (const auto& es : ext_starts) {
-    std::vector<double> th = base.theta;
+    std::vector<double> th = origin;
     const bool neutral = profile && es[0] == neutral_ext[0];
     if ((profile && !neutral) || wave_profile) {
       FitModel pm = held_model(es);
-      std::vector<std::vector<double>> origins = {base.theta};
+      std::vector<std::vector<double>> origins = {origin};
       if (bisect) origins.push_back(shifted_origin(es));
       const FitResult pr = fit(P, pm, origins, Span::kFeatures, 0, o.max_evals_profile);
       *evals += pr.evals;
@@ -209,63 +268,37 @@ Starts candidate_starts(const CandidateInputs& in, engine::ExtensionKind kind,
         th = pr.theta;
         profiles.push_back({es[0], pr.sse, pr.theta, {es.begin() + 1, es.end()}});
       }
-      // Viscous friction and drive damping both add force in proportion to the slip
-      // velocity. A base without them absorbs that force by a raised F_C and a v_s far
-      // below its true value (hidden sigma2 = 60 N s/m: v_s 7.2e-5 for 3.2e-4 m/s), and
-      // the feature objective has a false minimum there: refitted from the base optimum
-      // with the size held, v_s runs to its lower bound. So these also get a second
-      // profile start with v_s held at its nominal value (the spec's start, Table 1) and
-      // the other base parameters refitted; phase B then picks the better start by the
-      // time-domain objective.
-      std::size_t iv = nb;
-      for (std::size_t j = 0; j < nb; ++j)
-        if (base.model.specs[j].name == "v_s") iv = j;
-      if (slip_force && iv < nb) {
-        FitModel hm = pm;
-        engine::set_parameter(hm.base, "v_s", base.model.specs[iv].init);
-        hm.specs.erase(hm.specs.begin() + static_cast<std::ptrdiff_t>(iv));
-        std::vector<double> h0 = base.theta;
-        h0.erase(h0.begin() + static_cast<std::ptrdiff_t>(iv));
-        const FitResult hr = fit(P, hm, {h0}, Span::kFeatures, 0, o.max_evals_profile);
-        *evals += hr.evals;
-        if (hr.ok) {
-          std::vector<double> th2 = hr.theta;
-          th2.insert(th2.begin() + static_cast<std::ptrdiff_t>(iv), base.model.specs[iv].init);
-          th2.insert(th2.end(), es.begin(), es.end());
-          s.all.push_back(th2);
-          s.held.push_back(th2);
-        }
-      }
+      if (slip_force) held_vs_start(in, pm, origin, es, evals, &s);
     }
     th.insert(th.end(), es.begin(), es.end());
     s.all.push_back(th);
   }
-  if (bisect) {
-    // The size grid is coarse (20, 60, 150; dwell A 0.3, 1) and the profile's minimum narrow
-    // on long still stages: refine it by bisection between the best size and its better
-    // neighbour, the other parameters (dwell_tau) held at the best point's.
-    for (int step = 0; step < 3; ++step) {
-      const double size = next_profile_size(profiles);
-      if (!(size > 0)) break;
-      const ProfilePoint best = best_profile(profiles);  // a copy: profiles grows below
-      std::vector<double> es = {size};
-      es.insert(es.end(), best.rest.begin(), best.rest.end());
-      const FitResult pr = fit(P, held_model(es), {best.theta, shifted_origin(es)},
-                               Span::kFeatures, 0, o.max_evals_profile);
-      *evals += pr.evals;
-      if (!pr.ok) break;
-      profiles.push_back({size, pr.sse, pr.theta, best.rest});
-      std::vector<double> th = pr.theta;
-      th.insert(th.end(), es.begin(), es.end());
-      s.all.push_back(th);
-    }
-  }
+  if (bisect) bisect_profile(in, held_model, shifted_origin, &profiles, evals, &s);
   if (kind == engine::ExtensionKind::kSensorDynamics)  // held-v_s profile starts (diagnose_sensor.h)
-    sensor_profile_starts(P, base.model, base.theta, o, &s.all, &s.held, evals);
+    sensor_profile_starts(P, base.model, origin, o, in.scales, &s.all, &s.held, evals);
   return s;
 }
 
 }  // namespace
+
+/// Fit RMSE, held-out RMSE, n_eff and AIC of a candidate from its scoring evaluation c.full.
+void score_candidate(const Problem& P, CandFit& c) {
+  c.sse_fit = c.full.sse_fit;
+  c.res.offset = c.full.offset;
+  if (P.stats) {  // the statistics scores; the residuals are tolerance units, not samples
+    c.res.score_fit = rms(c.full.sse_fit, c.full.n_fit);
+    c.res.score_heldout = rms(c.full.sse_held, c.full.n_held);
+    c.res.rmse_fit = c.res.rmse_heldout = std::numeric_limits<double>::quiet_NaN();
+    c.n_eff = static_cast<double>(c.full.n_fit);
+    c.res.aic = c.n_eff * std::log(c.full.sse_fit / c.n_eff) + 2.0 * c.theta.size();
+    return;
+  }
+  c.res.rmse_fit = rms(c.full.sse_fit, c.full.n_fit);
+  c.res.rmse_heldout = rms(c.full.sse_held, c.full.n_held);
+  const double rho = lag1(P, c.full);
+  c.n_eff = std::max(static_cast<double>(c.full.n_fit) * (1 - rho) / (1 + rho), 10.0);
+  c.res.aic = c.n_eff * std::log(c.full.sse_fit / c.full.n_fit) + 2.0 * c.theta.size();
+}
 
 double still_stage_period(const std::vector<StageScore>& stages) {
   double sum = 0;
@@ -303,10 +336,11 @@ CandFit fit_candidate(const CandidateInputs& in, engine::ExtensionKind kind) {
   const std::size_t nb = base.theta.size();
   CandFit c;
   c.res.kind = kind;
+  ProgressItem item(P.meter.get(), to_string(kind));
   try {
     c.model = base.model;
     c.model.base.extension.kind = kind;
-    const auto ext = extension_specs(kind);
+    const auto ext = scaled_extension_specs(kind, in.scales);
     c.model.specs.insert(c.model.specs.end(), ext.begin(), ext.end());
     c.res.dof = static_cast<int>(ext.size());
     Starts s = candidate_starts(in, kind, ext, &c.res.evals);
@@ -355,6 +389,48 @@ CandFit fit_candidate(const CandidateInputs& in, engine::ExtensionKind kind) {
         append_load_estimates(c.theta, nb, cov, &c.res.params);
     } else if (kind == engine::ExtensionKind::kNormalLoadModulation) {
       append_load_estimates(c.theta, nb, {}, &c.res.params);
+    }
+  } catch (const std::exception& e) {
+    c.res.status = std::string("failed: ") + e.what();
+  }
+  return c;
+}
+
+std::vector<std::vector<double>> candidate_extension_starts(const CandidateInputs& in,
+                                                             engine::ExtensionKind kind,
+                                                             const std::vector<ParamSpec>& ext) {
+  return extension_starts(kind, ext, in.ev, in.scan, in.F_C0, in.scales);
+}
+
+CandFit fit_candidate_stats(const CandidateInputs& in, engine::ExtensionKind kind) {
+  const BaseFit& base = in.base;
+  const std::size_t nb = base.theta.size();
+  CandFit c;
+  c.res.kind = kind;
+  ProgressItem item(in.P.meter.get(), to_string(kind));
+  try {
+    c.model = base.model;
+    c.model.base.extension.kind = kind;
+    const auto ext = scaled_extension_specs(kind, in.scales);
+    c.model.specs.insert(c.model.specs.end(), ext.begin(), ext.end());
+    c.res.dof = static_cast<int>(ext.size());
+    std::vector<std::vector<double>> starts;
+    for (const auto& es : candidate_extension_starts(in, kind, ext)) {
+      std::vector<double> th = base.theta;
+      th.insert(th.end(), es.begin(), es.end());
+      starts.push_back(th);
+    }
+    const FitResult fr = fit(in.P, c.model, starts, Span::kStats, 0, in.o.max_evals_candidate);
+    c.res.evals += fr.evals;
+    if (!fr.ok) throw std::runtime_error(fr.reason);
+    c.theta = fr.theta;
+    c.full = evaluate(in.Ps, c.model, c.theta, Span::kStats, 0);
+    ++c.res.evals;
+    if (!c.full.ok) throw std::runtime_error(c.full.reason);
+    if (!nest_in_base(in.P, c, base, nb)) {
+      score_candidate(in.P, c);
+      c.res.base_params = estimates(c.model, c.theta, {}, 0, nb);
+      c.res.params = estimates(c.model, c.theta, {}, nb, c.theta.size());
     }
   } catch (const std::exception& e) {
     c.res.status = std::string("failed: ") + e.what();

@@ -13,21 +13,12 @@
 #include <cstddef>
 #include <vector>
 
+#include "stickslip/diagnosis/detail/diagnose_calibrate.h"
 #include "stickslip/diagnosis/detail/diagnose_evidence.h"
 #include "stickslip/diagnosis/detail/diagnose_fit.h"
 #include "stickslip/diagnosis/diagnose.h"
 
 namespace stickslip::diagnosis::detail {
-
-/// A calibrated base model: its result, model, fitted point and scoring evaluation.
-struct BaseFit {
-  BaseCalibration cal;
-  FitModel model;
-  std::vector<double> theta;
-  double sse_fit = 0;
-  std::size_t n_fit = 0;
-  Evaluation full;
-};
 
 /// A fitted candidate extension (theta: base parameters, then the extension's).
 struct CandFit {
@@ -49,6 +40,10 @@ struct CandidateInputs {
   const Evidence& ev;         ///< its residual evidence
   const SineScan& scan;       ///< its residual scan against x (waviness starts)
   const DiagnoseOptions& o;
+  RecordScales scales;        ///< the record's scales (diagnose_scale.h)
+  /// Where the candidates' starts begin (base.model's parameters): the base's first optimum with
+  /// its secondary parameters at their held values (BaseFit::origin); empty: base.theta.
+  std::vector<double> origin;
   double F_C0 = 0;            ///< data-driven F_C level (data_driven_start) [N]
   double still_period = 0;    ///< mean measured still-stage period [s] (dwell starts)
   double v_slip = 0;          ///< the base's still-stage slip velocity [m/s] (slip_velocity)
@@ -67,6 +62,20 @@ double slip_velocity(const Problem& P, const Evaluation& e);
 /// True when the candidate of this kind bisects its profile from the base point's feature SSE
 /// (CandidateInputs::base_feature_sse is needed).
 bool uses_base_feature_sse(engine::ExtensionKind k);
+
+/// Fit RMSE, held-out RMSE, n_eff and AIC of a candidate from its scoring evaluation c.full (in
+/// statistics scoring: the statistics scores, n_eff = the residual count).
+void score_candidate(const Problem& P, CandFit& c);
+
+/// The candidate `kind` fitted on the statistics (Span::kStats): the extension's starting sizes
+/// appended to the base optimum, Levenberg-Marquardt from the best, scored, nested in the base.
+/// Never throws.
+CandFit fit_candidate_stats(const CandidateInputs& in, engine::ExtensionKind kind);
+
+/// The starting sizes of an extension (extension parameters only), at the record's scales.
+std::vector<std::vector<double>> candidate_extension_starts(const CandidateInputs& in,
+                                                             engine::ExtensionKind kind,
+                                                             const std::vector<ParamSpec>& ext);
 
 /// Fits the candidate `kind` (steps 1-4 above). Never throws: a failure is reported in
 /// res.status ("failed: ..."), so the call is safe inside an OpenMP region.

@@ -5,10 +5,13 @@
 #include <cmath>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <nlopt.hpp>
 #include <stdexcept>
 
 #include "stickslip/diagnosis/detail/diagnose_load.h"
+#include "stickslip/diagnosis/detail/diagnose_progress.h"
+#include "stickslip/diagnosis/detail/diagnose_statfit.h"
 #include "stickslip/engine/metrics.h"
 #include "stickslip/engine/simulate.h"
 
@@ -16,8 +19,6 @@ namespace stickslip::diagnosis::detail {
 
 /// Integrator steps (accepted + rejected) allowed per simulated second in the diagnosis' runs.
 constexpr double kMaxStepsPerSecond = 1e6;
-
-namespace {
 
 /// The stages cut to [0, t_end] [s].
 std::vector<engine::Stage> stages_until(const std::vector<engine::Stage>& stages, double t_end) {
@@ -33,7 +34,12 @@ std::vector<engine::Stage> stages_until(const std::vector<engine::Stage>& stages
   return st;
 }
 
-}  // namespace
+
+std::optional<std::pair<std::string, std::string>> ratio_parts(const std::string& name) {
+  const auto slash = name.find('/');
+  if (slash == std::string::npos) return std::nullopt;
+  return std::make_pair(name.substr(0, slash), name.substr(slash + 1));
+}
 
 double ParamSpec::to_value(double u) const {
   u = std::clamp(u, 0.0, 1.0);
@@ -47,22 +53,29 @@ double ParamSpec::dvalue_du(double u) const {
   return log ? to_value(u) * (std::log(hi) - std::log(lo)) : hi - lo;
 }
 
+void FitModel::apply(engine::SimConfig& c, const std::vector<double>& theta) const {
+  double load[2] = {0, 0};  // normal-load components (diagnose_load.h)
+  bool has_load = false;
+  for (std::size_t i = 0; i < specs.size(); ++i) {
+    if (ratio_parts(specs[i].name)) continue;  // after the others (its denominator first)
+    if (is_load_component(specs[i].name)) {
+      load[specs[i].name == kLoadInPhase ? 0 : 1] = theta[i];
+      has_load = true;
+    } else {
+      engine::set_parameter(c, specs[i].name, theta[i]);
+    }
+  }
+  for (std::size_t i = 0; i < specs.size(); ++i)
+    if (const auto parts = ratio_parts(specs[i].name))
+      engine::set_parameter(c, parts->first, theta[i] * engine::get_parameter(c, parts->second));
+  if (has_load) apply_load_components(c, load[0], load[1]);
+}
+
 engine::SimConfig FitModel::config(const RunData& run, const std::vector<double>& theta, double t_end,
                            double rtol) const {
   engine::SimConfig c = base;
   measured::apply_conditions(run.cond, c);
-  double ratio = -1;
-  double load[2] = {0, 0};  // normal-load components (diagnose_load.h)
-  bool has_load = false;
-  for (std::size_t i = 0; i < specs.size(); ++i) {
-    if (specs[i].name == "F_C/F_S") ratio = theta[i];
-    else if (is_load_component(specs[i].name)) {
-      load[specs[i].name == kLoadInPhase ? 0 : 1] = theta[i];
-      has_load = true;
-    } else engine::set_parameter(c, specs[i].name, theta[i]);
-  }
-  if (ratio > 0) c.friction["F_C"] = ratio * c.friction["F_S"];
-  if (has_load) apply_load_components(c, load[0], load[1]);
+  apply(c, theta);
   c.stages = stages_until(c.stages, t_end);
   c.integrator.kind = engine::IntegratorKind::kAdaptive;
   c.integrator.rtol = rtol;
@@ -76,340 +89,6 @@ engine::SimConfig FitModel::config(const RunData& run, const std::vector<double>
   // simulated, so that runs of one length share their still stage (same_first_stages).
   c.integrator.max_steps = kMaxStepsPerSecond * std::max(run.cond.duration, 1.0);
   return c;
-}
-
-Problem make_problem(const measured::MeasuredDataset& data, const DiagnoseOptions& o) {
-  Problem p;
-  p.rtol = o.rtol;
-  p.fit_offset = o.fit_offset;
-  p.stop = o.stop_requested;
-  for (const measured::MeasuredRun& mr : data.runs) {
-    RunData r;
-    r.name = mr.name;
-    r.cond = mr.conditions;
-    if (mr.t.size() < 2) throw std::invalid_argument("run " + mr.name + ": too few samples");
-    std::vector<double> dt(mr.t.size() - 1);
-    for (std::size_t i = 1; i < mr.t.size(); ++i) dt[i - 1] = mr.t[i] - mr.t[i - 1];
-    std::nth_element(dt.begin(), dt.begin() + dt.size() / 2, dt.end());
-    const double dt_med = dt[dt.size() / 2];
-    const std::size_t step =
-        std::max<std::size_t>(1, static_cast<std::size_t>(std::lround(1.0 / (o.fit_rate * dt_med))));
-    engine::SimConfig c;
-    measured::apply_conditions(r.cond, c);
-    double t0 = 0;
-    std::vector<std::pair<double, double>> stages;
-    for (const engine::Stage& s : c.stages) {
-      stages.emplace_back(t0, t0 + s.duration);
-      r.stage_start.push_back(t0);
-      t0 += s.duration;
-    }
-    {  // Feature windows: the fitted part of every stage, from the full-rate measured signal.
-      std::vector<double> ft, fy;
-      for (std::size_t i = 0; i < mr.t.size() && mr.t[i] <= r.cond.duration; ++i) {
-        ft.push_back(mr.t[i]);
-        fy.push_back(mr.Fd[i]);
-      }
-      for (std::size_t j = 0; j < stages.size(); ++j) {
-        const double s = stages[j].first, d = stages[j].second - s;
-        double e = s + (1.0 - o.holdout_fraction) * d;
-        if (j > 0) e = std::min(e, s + o.later_stage_fit_span);
-        r.windows.push_back(make_window(ft, fy, s, e, c.stages[j].v_a <= 0.0));
-      }
-      r.features = extract_features(ft, fy, r.windows, r.cond.kd * r.cond.vd);
-      const auto& ts = r.features.t.front();
-      if (stages.size() > 1 && c.stages[0].v_a <= 0.0 && ts.size() >= 4) {
-        const std::size_t h = ts.size() / 2;
-        const double T = (ts.back() - ts[h]) / static_cast<double>(ts.size() - 1 - h);
-        r.anchor_t = stages[1].first;
-        r.anchor_tau = std::fmod(r.anchor_t - ts.back(), T);
-      }
-    }
-    for (std::size_t i = 0; i < mr.t.size(); i += step) {
-      const double t = mr.t[i];
-      if (t > r.cond.duration) break;
-      int j = 0;
-      while (j + 1 < static_cast<int>(stages.size()) && t >= stages[j + 1].first) ++j;
-      const double s = stages[j].first, d = stages[j].second - s;
-      const double held_from = s + (1.0 - o.holdout_fraction) * d;
-      std::uint8_t role = kUnused;
-      if (t >= held_from) role = kHeld;
-      else if (j == 0 || t < s + o.later_stage_fit_span) role = kFit;
-      r.t.push_back(t);
-      r.y.push_back(mr.Fd[i]);
-      r.role.push_back(role);
-      r.stage.push_back(j);
-      if (role == kFit) r.fit_end = std::max(r.fit_end, t);
-    }
-    p.runs.push_back(std::move(r));
-  }
-  return p;
-}
-
-StartLevels data_driven_start(const Problem& p) {
-  double mean_sum = 0, amp_sum = 0;
-  int n = 0;
-  for (const auto& r : p.runs) {
-    const double t1 = r.stage_start.size() > 1 ? r.stage_start[1] : r.cond.duration;
-    engine::StageAccumulator acc(0.0, t1, engine::MetricOptions{});
-    for (std::size_t i = 0; i < r.t.size() && r.t[i] <= t1; ++i) acc.sample(r.t[i], r.y[i], r.y[i]);
-    const engine::StageMetrics m = acc.finish();
-    mean_sum += m.mean_force;
-    amp_sum += m.amplitude;
-    ++n;
-  }
-  StartLevels s;
-  if (n == 0) return s;
-  s.F_C0 = mean_sum / n;
-  s.F_S0 = s.F_C0 + 0.5 * amp_sum / n;
-  return s;
-}
-
-namespace {
-
-double span_end(const RunData& r, Span span, double short_end) {
-  switch (span) {
-    case Span::kShort: return std::min(short_end, r.fit_end) + 1e-3;
-    case Span::kFit:
-    case Span::kFeatures: return r.fit_end + 1e-3;
-    case Span::kFull: return r.cond.duration;
-  }
-  return r.cond.duration;
-}
-
-bool counts(const RunData& r, std::size_t i, Span span, double short_end) {
-  if (r.role[i] != kFit) return false;
-  return span != Span::kShort || r.t[i] < short_end;
-}
-
-/// The samples of a trace with from <= t < to, as columns on the clock t - shift [s], F_d [N].
-void trace_columns(const std::vector<engine::TraceSample>& tr, double from, double to, double shift,
-                   std::vector<double>* t, std::vector<double>* F) {
-  for (const engine::TraceSample& q : tr)
-    if (q.t >= from && q.t < to) {
-      t->push_back(q.t - shift);
-      F->push_back(q.F_d);
-    }
-}
-
-/// Length of the phase search around the switch [s]: the measured mean still-stage period
-/// (first window's slips), or 1 s when it has fewer than two.
-double search_span(const RunData& r) {
-  const auto& ts = r.features.t.front();
-  return ts.size() >= 2 ? (ts.back() - ts.front()) / static_cast<double>(ts.size() - 1) : 1.0;
-}
-
-/// The shift of the switch that puts it at the measured phase of the still stage's stick-slip
-/// cycle: t_k + anchor_tau - t_on for the simulated slip t_k (still stage simulated past t_on)
-/// that puts it nearest to t_on; 0 when there is none, or when the shifted switch would fall
-/// inside the first feature window. The simulated cycle is then as long past its last slip as
-/// the measured one, whatever its own period and levels (a force level as the anchor fails
-/// where the vibration breaks the stick at once: the measured F_d is already falling just after
-/// t_on, and a model whose troughs lie above it never reaches it).
-double phase_shift(const RunData& r, const std::vector<engine::TraceSample>& tr) {
-  const double T = search_span(r);
-  WindowSpec w = r.windows.front();  // the measured level and hysteresis find the slips
-  w.t0 = std::max(0.0, r.anchor_t - 2 * T);
-  w.t1 = tr.back().t;
-  std::vector<double> t, F;
-  trace_columns(tr, w.t0, std::numeric_limits<double>::infinity(), 0.0, &t, &F);
-  const Features f = extract_features(t, F, {w}, r.cond.kd * r.cond.vd);
-  double best = std::numeric_limits<double>::infinity();
-  for (double tk : f.t.front()) {
-    const double d = tk + r.anchor_tau - r.anchor_t;
-    if (std::fabs(d) < std::fabs(best)) best = d;
-  }
-  if (!std::isfinite(best) || r.anchor_t + best <= r.windows.front().t1) return 0.0;
-  return best;
-}
-
-/// cfg (all stages) with the first stage ending at t_switch, the later stages unchanged, cut
-/// at t_end.
-engine::SimConfig switched_at(engine::SimConfig cfg, double t_switch, double t_end) {
-  cfg.stages.front().duration = t_switch;
-  cfg.stages = stages_until(cfg.stages, t_end);
-  return cfg;
-}
-
-/// Appends the windows of b to a (the feature vectors are per window).
-void append_windows(Features* a, const Features& b) {
-  auto cat = [](auto& x, const auto& y) { x.insert(x.end(), y.begin(), y.end()); };
-  cat(a->t, b.t);
-  cat(a->P, b.P);
-  cat(a->Q, b.Q);
-  cat(a->blocks, b.blocks);
-  cat(a->mean, b.mean);
-  cat(a->sd, b.sd);
-}
-
-}  // namespace
-
-Evaluation evaluate(const Problem& p, const FitModel& m, const std::vector<double>& theta,
-                    Span span, double short_end) {
-  Evaluation e;
-  if (p.stop && p.stop()) {
-    e.reason = "cancelled";
-    return e;
-  }
-  e.sims.resize(p.runs.size());
-  std::vector<double> feat_level, feat_other;
-  // Simulated still stages at theta (runs' own traces or phase-only simulations), for the phase
-  // of the runs that vibrate after t_on; `kept` owns them.
-  std::vector<std::pair<const RunData*, const std::vector<engine::TraceSample>*>> still;
-  std::vector<std::unique_ptr<engine::SimResult>> kept;
-  // Unaligned spans: runs with the same first (still) stage integrate it once; the others
-  // continue from its end (SimCheckpoint, bitwise the same as from rest).
-  std::vector<std::pair<engine::SimConfig, engine::SimCheckpoint>> first_stages;
-  for (std::size_t k = 0; k < p.runs.size(); ++k) {
-    const RunData& r = p.runs[k];
-    const double t_end = span_end(r, span, short_end);
-    engine::SimConfig cfg;
-    double shift = 0;  // switch moved by this to the measured phase (features only) [s]
-    const bool align = span == Span::kFeatures && std::isfinite(r.anchor_tau) && r.windows.size() > 1;
-    bool all_still = true;
-    auto held = std::make_unique<engine::SimResult>();  // kept in `kept` when `still` points into it
-    engine::SimResult& res = *held;
-    bool shared = false;
-    try {
-      cfg = m.config(r, theta, t_end, p.rtol);
-      for (const engine::Stage& st : cfg.stages) all_still = all_still && !st.vibrating();
-      if (align && all_still) {
-        // Still after t_on too: the switch is nominal, so the run's own trace gives the phase
-        // and, on the shifted clock, the later windows; it also serves the vibrating runs.
-        res = engine::simulate(cfg);
-        if (res.status == engine::RunStatus::kOk && !res.trace.empty()) {
-          shift = phase_shift(r, res.trace);
-          still.push_back({&r, &res.trace});
-          shared = true;
-        }
-      } else if (align) {
-        // The still stage simulated one period and the slip's ramp window past t_on: shared by
-        // the runs with the same still stage (the same m, k_d, v_d and t_on).
-        const double t_a = r.anchor_t + search_span(r) + 0.2;
-        const std::vector<engine::TraceSample>* tr = nullptr;
-        for (const auto& [q, qt] : still)
-          if (q->cond.m == r.cond.m && q->cond.kd == r.cond.kd && q->cond.vd == r.cond.vd &&
-              q->anchor_t == r.anchor_t && !qt->empty() && qt->back().t >= t_a)
-            tr = qt;
-        if (!tr) {
-          auto a = std::make_unique<engine::SimResult>(
-              engine::simulate(switched_at(m.config(r, theta, r.cond.duration, p.rtol), t_a, t_a)));
-          if (a->status == engine::RunStatus::kOk) {
-            tr = &a->trace;
-            still.push_back({&r, tr});
-            kept.push_back(std::move(a));
-          }
-        }
-        if (tr) shift = phase_shift(r, *tr);
-        if (shift != 0) cfg = switched_at(m.config(r, theta, r.cond.duration, p.rtol),
-                                          r.anchor_t + shift, t_end + shift);
-      }
-    } catch (const std::exception& ex) {
-      e.reason = ex.what();
-      return e;
-    }
-    if (!align && cfg.stages.size() > 1) {
-      const engine::SimCheckpoint* from = nullptr;
-      for (const auto& [c0, cp] : first_stages)
-        if (engine::same_first_stages(cfg, c0, 1)) from = &cp;
-      if (from) {
-        res = engine::simulate_from(cfg, *from);
-      } else {
-        engine::SimCheckpoint cp;
-        res = engine::simulate(cfg, 1, &cp);
-        if (!cp.empty()) first_stages.emplace_back(cfg, std::move(cp));
-      }
-    } else if (!(align && all_still)) {
-      res = engine::simulate(cfg);
-    }
-    RunSim& s = e.sims[k];
-    if (res.status != engine::RunStatus::kOk || res.trace.size() < 2) {
-      e.reason = "run " + r.name + ": " + to_string(res.status) + " " + res.reason;
-      return e;
-    }
-    if (span == Span::kFeatures) {
-      const double rise = r.cond.kd * r.cond.vd;
-      // The first window (still stage, before the switch) as simulated; the later windows
-      // from the switch on, on the measured clock (simulated t - shift; shift = 0 unaligned).
-      constexpr double kInf = std::numeric_limits<double>::infinity();
-      const double t_switch = r.windows.size() > 1 ? r.windows[1].t0 + shift : kInf;
-      std::vector<double> t0, f0, t1, f1;
-      trace_columns(res.trace, -kInf, t_switch, 0.0, &t0, &f0);
-      // The later part from 10 ms before the switch, so that the interpolant of the windowed
-      // statistics reaches the window's start wherever the trace's grid lies (diagnose_features.cpp).
-      trace_columns(res.trace, t_switch - 0.01, kInf, shift, &t1, &f1);
-      const std::vector<WindowSpec> first(r.windows.begin(), r.windows.begin() + 1),
-          later(r.windows.begin() + 1, r.windows.end());
-      Features f = extract_features(t0, f0, first, rise);
-      append_windows(&f, extract_features(t1, f1, later, rise));
-      feature_residuals(r.features, f, r.windows, rise, &feat_level, &feat_other);
-    }
-    // Linear interpolation of the trace at the sample times.
-    std::size_t j = 0;
-    for (std::size_t i = 0; i < r.t.size() && r.t[i] <= t_end; ++i) {
-      while (j + 2 < res.trace.size() && res.trace[j + 1].t < r.t[i]) ++j;
-      const engine::TraceSample &a = res.trace[j], &b = res.trace[j + 1];
-      const double w = b.t > a.t ? std::clamp((r.t[i] - a.t) / (b.t - a.t), 0.0, 1.0) : 0.0;
-      s.F.push_back(a.F_d + w * (b.F_d - a.F_d));
-      s.x.push_back(a.x + w * (b.x - a.x));
-      s.v.push_back(a.v + w * (b.v - a.v));
-    }
-    s.ok = true;
-    if (shared) kept.push_back(std::move(held));
-  }
-  double sum = 0;
-  std::size_t n = 0;
-  for (std::size_t k = 0; k < p.runs.size(); ++k)
-    for (std::size_t i = 0; i < e.sims[k].F.size(); ++i)
-      if (counts(p.runs[k], i, span, short_end)) {
-        sum += p.runs[k].y[i] - e.sims[k].F[i];
-        ++n;
-      }
-  e.offset = (p.fit_offset && n > 0) ? sum / static_cast<double>(n) : 0.0;
-  for (std::size_t k = 0; k < p.runs.size(); ++k) {
-    const RunData& r = p.runs[k];
-    for (std::size_t i = 0; i < e.sims[k].F.size(); ++i) {
-      const double res = r.y[i] - e.sims[k].F[i] - e.offset;
-      if (counts(r, i, span, short_end)) {
-        e.sse_fit += res * res;
-        ++e.n_fit;
-      } else if (span == Span::kFull && r.role[i] == kHeld) {
-        e.sse_held += res * res;
-        ++e.n_held;
-      }
-    }
-  }
-  if (span == Span::kFeatures) {
-    // Per-cycle and per-stage features (diagnose_features.h); the sensor offset shifts every
-    // level term alike and is removed in closed form.
-    double off = 0;
-    if (p.fit_offset && !feat_level.empty()) {
-      for (double v : feat_level) off += v;
-      off /= static_cast<double>(feat_level.size());
-    }
-    double sse = 0;
-    for (double v : feat_level) {
-      e.feat.push_back(v - off);
-      sse += (v - off) * (v - off);
-    }
-    for (double v : feat_other) {
-      e.feat.push_back(v);
-      sse += v * v;
-    }
-    e.sse_fit = sse;
-  }
-  e.ok = e.n_fit > 0;
-  if (!e.ok && e.reason.empty()) e.reason = "no fit samples";
-  return e;
-}
-
-std::vector<double> fit_residuals(const Problem& p, const Evaluation& e, Span span,
-                                  double short_end) {
-  std::vector<double> out;
-  for (std::size_t k = 0; k < p.runs.size(); ++k)
-    for (std::size_t i = 0; i < e.sims[k].F.size(); ++i)
-      if (counts(p.runs[k], i, span, short_end))
-        out.push_back(p.runs[k].y[i] - e.sims[k].F[i] - e.offset);
-  return out;
 }
 
 namespace {
@@ -490,7 +169,8 @@ void levenberg_marquardt(Ctx& c, unsigned n) {
     ++c.evals;
     const Evaluation e = evaluate(*c.p, *c.m, to_theta(*c.m, u), c.span, c.short_end);
     if (!e.ok) return std::numeric_limits<double>::infinity();
-    *r = c.span == Span::kFeatures ? e.feat : fit_residuals(*c.p, e, c.span, c.short_end);
+    *r = c.span == Span::kFeatures || c.span == Span::kStats ? e.feat
+                                                             : fit_residuals(*c.p, e, c.span, c.short_end);
     if (e.sse_fit < c.best) {
       c.best = e.sse_fit;
       c.best_u = u;
@@ -564,6 +244,10 @@ void levenberg_marquardt(Ctx& c, unsigned n) {
 
 }  // namespace
 
+double jacobian_step(Span span) {
+  return span == Span::kFeatures || span == Span::kStats ? kFeatureStep : kTimeDomainStep;
+}
+
 FitResult fit(const Problem& p, const FitModel& m, const std::vector<std::vector<double>>& starts,
               Span span, double short_end, int max_evals) {
   Ctx c{&p, &m, span, short_end, 0, max_evals, {}, std::numeric_limits<double>::infinity(), {}};
@@ -579,7 +263,7 @@ FitResult fit(const Problem& p, const FitModel& m, const std::vector<std::vector
     out.evals = c.evals;
     return out;
   }
-  if (span == Span::kFeatures) {
+  if (span == Span::kFeatures || span == Span::kStats) {
     levenberg_marquardt(c, n);
     out.theta = to_theta(m, c.best_u);
     out.sse = c.best;
@@ -625,52 +309,6 @@ FitResult fit(const Problem& p, const FitModel& m, const std::vector<std::vector
   out.sse = c.best;
   out.evals = c.evals;
   out.ok = std::isfinite(c.best);
-  return out;
-}
-
-std::vector<double> standard_errors(const Problem& p, const FitModel& m,
-                                    const std::vector<double>& theta, double n_over_neff,
-                                    int* evals, std::vector<double>* cov_si) {
-  const std::size_t k = theta.size();
-  std::vector<double> out(k, std::numeric_limits<double>::quiet_NaN());
-  const Evaluation e0 = evaluate(p, m, theta, Span::kFit, 0);
-  ++*evals;
-  if (!e0.ok) return out;
-  const std::vector<double> r0 = fit_residuals(p, e0, Span::kFit, 0);
-  const std::size_t n = r0.size();
-  if (n <= k + 1) return out;
-  Eigen::MatrixXd J(n, k);
-  std::vector<double> u(k);
-  for (std::size_t j = 0; j < k; ++j) u[j] = m.specs[j].to_unit(theta[j]);
-  for (std::size_t j = 0; j < k; ++j) {
-    const double h = u[j] > 0.99 ? -kTimeDomainStep : kTimeDomainStep;
-    std::vector<double> th = theta;
-    th[j] = m.specs[j].to_value(u[j] + h);
-    const Evaluation e = evaluate(p, m, th, Span::kFit, 0);
-    ++*evals;
-    if (!e.ok) return out;
-    const std::vector<double> r = fit_residuals(p, e, Span::kFit, 0);
-    if (r.size() != n) return out;
-    for (std::size_t i = 0; i < n; ++i) J(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j)) = (r[i] - r0[i]) / h;
-  }
-  double sse = 0;
-  for (double r : r0) sse += r * r;
-  const double s2 = sse / static_cast<double>(n - k);
-  const Eigen::MatrixXd JtJ = J.transpose() * J;
-  Eigen::JacobiSVD<Eigen::MatrixXd> svd(JtJ, Eigen::ComputeFullU | Eigen::ComputeFullV);
-  const auto& sv = svd.singularValues();
-  if (sv(0) <= 0 || sv(sv.size() - 1) < 1e-12 * sv(0)) return out;  // not identifiable
-  const Eigen::MatrixXd cov = svd.solve(Eigen::MatrixXd::Identity(k, k)) * s2 * n_over_neff;
-  for (std::size_t j = 0; j < k; ++j)
-    out[j] = std::sqrt(std::max(0.0, cov(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(j)))) *
-             std::fabs(m.specs[j].dvalue_du(u[j]));
-  if (cov_si) {
-    cov_si->assign(k * k, 0.0);
-    for (std::size_t i = 0; i < k; ++i)
-      for (std::size_t j = 0; j < k; ++j)
-        (*cov_si)[i * k + j] = cov(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j)) *
-                               m.specs[i].dvalue_du(u[i]) * m.specs[j].dvalue_du(u[j]);
-  }
   return out;
 }
 
@@ -738,11 +376,13 @@ std::vector<ParamEstimate> estimates(const FitModel& m, const std::vector<double
   for (std::size_t i = from; i < to; ++i) {
     std::string name = m.specs[i].name;
     double v = theta[i], s = se.empty() ? std::numeric_limits<double>::quiet_NaN() : se[i];
-    if (name == "F_C/F_S") {  // report F_C itself
-      const double F_S = theta[0];
-      name = "F_C";
-      v = theta[i] * F_S;
-      s = std::isfinite(s) ? s * F_S : s;
+    if (const auto parts = ratio_parts(name)) {  // report the parameter itself (a ratio's times its denominator)
+      engine::SimConfig c = m.base;
+      m.apply(c, theta);
+      const double den = engine::get_parameter(c, parts->second);
+      name = parts->first;
+      v = theta[i] * den;
+      s = std::isfinite(s) ? s * den : s;
     }
     out.push_back({name, v, s});
   }

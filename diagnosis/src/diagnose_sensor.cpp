@@ -6,7 +6,7 @@ namespace stickslip::diagnosis::detail {
 
 void sensor_profile_starts(const Problem& P, const FitModel& base,
                            const std::vector<double>& base_theta, const DiagnoseOptions& o,
-                           std::vector<std::vector<double>>* starts,
+                           const RecordScales& scales, std::vector<std::vector<double>>* starts,
                            std::vector<std::vector<double>>* held_starts, int* evals) {
   const std::size_t nb = base_theta.size();
   std::size_t iv = nb;
@@ -15,7 +15,8 @@ void sensor_profile_starts(const Problem& P, const FitModel& base,
   if (iv == nb) return;  // a base model without a Stribeck velocity
   const double v_s0 = base.specs[iv].init;
   constexpr double kZeta = 0.7;
-  for (double tau : {1e-3, 3e-3, 1e-2}) {  // [s], half-decade steps
+  for (double tau0 : {1e-3, 3e-3, 1e-2}) {  // [s] at Table 1's scale, half-decade steps
+    const double tau = scaled_extension_value("sensor_tau", tau0, scales);
     FitModel hm = base;
     hm.base.extension.kind = engine::ExtensionKind::kSensorDynamics;
     engine::set_parameter(hm.base, "sensor_tau", tau);

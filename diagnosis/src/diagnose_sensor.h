@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "stickslip/diagnosis/detail/diagnose_fit.h"
+#include "stickslip/diagnosis/detail/diagnose_scale.h"
 #include "stickslip/diagnosis/diagnose.h"
 
 namespace stickslip::diagnosis::detail {
@@ -30,7 +31,7 @@ namespace stickslip::diagnosis::detail {
 /// base model (its specs must contain v_s; otherwise nothing is added). Counts evaluations.
 void sensor_profile_starts(const Problem& P, const FitModel& base,
                            const std::vector<double>& base_theta, const DiagnoseOptions& o,
-                           std::vector<std::vector<double>>* starts,
+                           const RecordScales& scales, std::vector<std::vector<double>>* starts,
                            std::vector<std::vector<double>>* held_starts, int* evals);
 
 }  // namespace stickslip::diagnosis::detail

@@ -140,7 +140,7 @@ Response conditional_response(const Request& r, const Response& full) {
 }
 
 Api::Api(ApiOptions options, JobScheduler* scheduler, JobScheduler* diagnoses,
-         std::shared_ptr<const Health> health)
+         std::shared_ptr<const Health> health, JobScheduler* validations)
     : options_(std::move(options)),
       health_(std::move(health)),
       pool_(options_.db) {
@@ -149,6 +149,7 @@ Api::Api(ApiOptions options, JobScheduler* scheduler, JobScheduler* diagnoses,
   auto id_of = [](const PathParams& p) { return p.at("id"); };
   studies_ = study_resource(scheduler);
   diagnoses_ = diagnosis_resource(diagnoses);
+  validations_ = validation_resource(validations);
   add_job_routes(studies_, [this](const Request& r, const std::string& id) {
     return get_study(r, id);
   });
@@ -181,6 +182,7 @@ Api::Api(ApiOptions options, JobScheduler* scheduler, JobScheduler* diagnoses,
               [this, id_of](const Request& r, const PathParams& p) {
                 return get_diagnosis_trace(r, id_of(p), p.at("run"));
               });
+  add_validation_routes();
   // The dashboard: index.html at / and its files at /ui/<path> (up to three segments deep).
   router_.add("GET", "/", [this](const Request& r, const PathParams&) {
     return dashboard_file(r, "index.html");

@@ -74,8 +74,15 @@ JobResource Api::diagnosis_resource(JobScheduler* scheduler) const {
   res.scheduler = scheduler;
   res.detail_columns = {.request = false, .result = true};
   res.list_columns = {};
-  res.to_json = [](const store::JobRecord& job, bool detail) {
-    return diagnosis_json(store::diagnosis_from_job(job), detail);
+  res.to_json = [scheduler](const store::JobRecord& job, bool detail) {
+    json j = diagnosis_json(store::diagnosis_from_job(job), detail);
+    // The running diagnosis' phase, models or candidates, evaluations and time left.
+    if (detail) {  // while it runs (the board is cleared just after the outcome is stored)
+      const auto p = scheduler && job.state == store::StudyState::kRunning ? scheduler->progress(job.id)
+                                                                          : std::nullopt;
+      j["progress"] = p ? *p : json(nullptr);
+    }
+    return j;
   };
   res.check = [this](const json& doc, const Request&) -> std::variant<store::NewJob, Response> {
     // Every check the worker will make (schema, options, CSV contents).

@@ -47,8 +47,8 @@ std::optional<diagnosis::DiagnosisRequest> stored_request(const std::string& tex
 
 }  // namespace
 
-RunJobFn diagnosis_runner(DiagnoseFn fn, int threads) {
-  return [fn = std::move(fn), threads](JobContext& ctx) -> JobOutcome {
+RunJobFn diagnosis_runner(DiagnoseFn fn, int threads, std::shared_ptr<ProgressBoard> board) {
+  return [fn = std::move(fn), threads, board](JobContext& ctx) -> JobOutcome {
     const std::string& id = ctx.job.id;
     std::vector<common::SpecError> errors;
     auto request = stored_request(ctx.job.request_json.value_or(""), threads, &errors);
@@ -60,6 +60,14 @@ RunJobFn diagnosis_runner(DiagnoseFn fn, int threads) {
     diagnosis::DiagnoseOptions options = request->options;
     options.stop_requested = [&ctx] { return ctx.should_stop(); };
     options.keep_traces = true;  // stored beside the result (GET .../traces)
+    if (board) options.progress = [board, id](const diagnosis::Progress& p) { board->set(id, p); };
+    struct Erase {  // the progress means nothing once the run ends, however it ends
+      ProgressBoard* b;
+      const std::string& id;
+      ~Erase() {
+        if (b) b->erase(id);
+      }
+    } erase{board.get(), id};
     const auto t0 = std::chrono::steady_clock::now();
     std::optional<DiagnosisOutput> out;
     try {
@@ -96,9 +104,20 @@ JobWorkerOptions job_options(const DiagnosisWorkerOptions& o) {
 
 DiagnosisWorker::DiagnosisWorker(std::filesystem::path db, DiagnosisWorkerOptions options,
                                  DiagnoseFn fn, std::shared_ptr<Health> health)
+    : DiagnosisWorker(std::move(db), std::move(options), std::move(fn), std::move(health),
+                      std::make_shared<ProgressBoard>()) {}
+
+DiagnosisWorker::DiagnosisWorker(std::filesystem::path db, DiagnosisWorkerOptions options,
+                                 DiagnoseFn fn, std::shared_ptr<Health> health,
+                                 std::shared_ptr<ProgressBoard> board)
     : JobWorker(std::move(db), job_options(options),
-                fn ? diagnosis_runner(std::move(fn), options.threads) : RunJobFn{},
-                std::move(health)) {}
+                fn ? diagnosis_runner(std::move(fn), options.threads, board) : RunJobFn{},
+                std::move(health)),
+      board_(std::move(board)) {}
+
+std::optional<nlohmann::json> DiagnosisWorker::progress(const std::string& id) const {
+  return board_->get(id);
+}
 
 std::optional<std::string> DiagnosisWorker::running() const {
   const auto ids = JobWorker::running();

@@ -12,6 +12,7 @@
 
 #include "stickslip/diagnosis/diagnose.h"
 #include "stickslip/diagnosis/diagnose_suite.h"
+#include "long_tests.h"
 #include "stickslip/measured/synth.h"
 
 using namespace stickslip;
@@ -21,6 +22,7 @@ using namespace stickslip::diagnosis;
 // Table 1 with a hidden dwell term (A = 0.5 N, tau = 0.1 s), white noise 0.03 N; the dwell
 // candidate alone, with the default budget.
 TEST(DiagnoseProfiles, DwellCandidateFindsTheSizeOnTheSeedsLongRuns) {
+  if (!stickslip::testing::long_diagnosis_tests()) GTEST_SKIP() << "a long test: set STICKSLIP_DIAG_LONG=1 (67 CPU-s)";
   const HiddenCase hc = hidden_case("dwell_time");
   const measured::MeasuredDataset data = measured::synthesize(hidden_case_dataset(hc, 1000, SuiteDatasets::kSeed));
   DiagnoseOptions o = hidden_case_options(SuiteDatasets::kSeed);

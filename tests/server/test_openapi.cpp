@@ -75,6 +75,14 @@ TEST(OpenApi, EveryServedRouteIsDocumentedAndEveryDocumentedRouteIsServed) {
   const Response result = api.handle(testing::get("/v1/diagnosis.schema.json"));
   ASSERT_EQ(result.status, 200);
   EXPECT_EQ(json::parse(result.body)["title"], "stickslip diagnosis");
+  const Response vreq = api.handle(testing::get("/v1/validation_request.schema.json"));
+  ASSERT_EQ(vreq.status, 200);
+  EXPECT_EQ(json::parse(vreq.body)["required"], json({"manifest", "files"}));
+  const Response val = api.handle(testing::get("/v1/validation.schema.json"));
+  ASSERT_EQ(val.status, 200);
+  EXPECT_EQ(json::parse(val.body)["title"], "stickslip validation");
+  // The served validation schema carries the definitions it shares with the diagnosis schema.
+  EXPECT_TRUE(json::parse(val.body)["$defs"].contains("slipstats"));
 }
 
 TEST(OpenApi, EveryLocalReferenceResolves) {
@@ -83,10 +91,12 @@ TEST(OpenApi, EveryLocalReferenceResolves) {
   collect_refs(doc, &refs);
   ASSERT_FALSE(refs.empty());
   for (const auto& ref : refs) {
-    // Served at /v1/study.schema.json, /v1/diagnosis_request.schema.json and
-    // /v1/diagnosis.schema.json (tested above).
+    // Served at /v1/study.schema.json, /v1/diagnosis_request.schema.json,
+    // /v1/diagnosis.schema.json, /v1/validation_request.schema.json and
+    // /v1/validation.schema.json (tested above).
     if (ref == "study.schema.json" || ref == "diagnosis_request.schema.json" ||
-        ref == "diagnosis.schema.json")
+        ref == "diagnosis.schema.json" || ref == "validation_request.schema.json" ||
+        ref == "validation.schema.json")
       continue;
     ASSERT_TRUE(ref.starts_with("#/")) << ref;
     EXPECT_TRUE(doc.contains(json::json_pointer(ref.substr(1)))) << ref;

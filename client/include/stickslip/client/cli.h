@@ -48,6 +48,7 @@ CLI::Option* add_model_option(CLI::App& cmd, std::string& model);
 void add_simulate_command(CLI::App& app, int& exit_code);
 void add_synth_command(CLI::App& app, int& exit_code);
 void add_diagnose_command(CLI::App& app, int& exit_code);
+void add_validate_command(CLI::App& app, int& exit_code);  ///< `validate DIAGNOSIS MANIFEST`
 void add_table_command(CLI::App& app, int& exit_code);
 void add_study_command(CLI::App& app, int& exit_code, std::shared_ptr<studies::Executor> mpi);
 /// `study compute`: the job a launcher starts (studies/launcher.h).

@@ -60,6 +60,16 @@ class Remote {
   nlohmann::json wait_diagnosis(const std::string& id, double interval_s,
                                 const std::function<void(const nlohmann::json&)>& on_change);
 
+  /// Any job collection ("/v1/validations"): POST a request document (202), GET one, poll until
+  /// it is succeeded, failed or cancelled (on_change with each new state or progress), and GET a
+  /// text resource (CSV).
+  nlohmann::json submit_job(const std::string& collection, const std::string& request_json,
+                            const std::string& idempotency_key = "");
+  nlohmann::json job(const std::string& collection, const std::string& id);
+  nlohmann::json wait_job(const std::string& collection, const std::string& id, double interval_s,
+                          const std::function<void(const nlohmann::json&)>& on_change);
+  std::string get_text(const std::string& target);
+
   const ServerUrl& server() const noexcept { return server_; }
 
  private:

@@ -46,16 +46,25 @@
 #include <string_view>
 #include <vector>
 
+#include "stickslip/diagnosis/slip_stats.h"
 #include "stickslip/engine/params.h"
 #include "stickslip/engine/simulate.h"
 #include "stickslip/measured/measured.h"
 
 namespace stickslip::diagnosis {
 
+/// Where a running diagnosis is (DiagnoseOptions::progress).
+struct Progress {
+  std::string phase;        ///< "reading", "calibration", "candidates", "refits", "whole runs", "done"
+  std::string item;         ///< the models or candidates in work, e.g. "lugre, dahl"
+  int evaluations = 0;      ///< model evaluations done
+  int estimated_total = 0;  ///< the diagnosis' evaluation budget (an upper estimate)
+  double seconds = 0;       ///< elapsed [s]
+  double seconds_left = 0;  ///< estimate from the rate so far [s]; NaN before there is one
+};
+
 struct DiagnoseOptions {
-  std::vector<engine::ModelKind> models = {
-      engine::model_kind<engine::Dahl>, engine::model_kind<engine::Karnopp>,
-      engine::model_kind<engine::ResetIntegrator>, engine::model_kind<engine::LuGre>};
+  std::vector<engine::ModelKind> models = engine::all_models();  ///< every registered model
   std::vector<engine::ExtensionKind> candidates = engine::extension_catalogue();
   double fit_rate = 250.0;              ///< decimated samples per second [Hz]
   double holdout_fraction = 0.3;        ///< last part of every stage held out [-]
@@ -82,6 +91,11 @@ struct DiagnoseOptions {
   /// returns true, the evaluations fail at once and diagnose throws DiagnosisCancelled. Not part
   /// of a request: the server's worker sets it to stop a cancelled or interrupted diagnosis.
   std::function<bool()> stop_requested;
+  /// Called with the diagnosis' progress, from any thread, at most every progress_interval
+  /// seconds and at each change of phase (must be thread-safe; the calls never overlap). Not part
+  /// of a request: the CLI prints it, the server's worker keeps it in the job's state.
+  std::function<void(const Progress&)> progress;
+  double progress_interval = 0.5;  ///< [s]
 
   bool IsValid(std::string* why) const;
 };
@@ -106,6 +120,15 @@ struct StageScore {
   int measured_slips = 0, model_slips = 0;
 };
 
+/// Whether the calibration freed a parameter: "fitted" (in the fit's box), or "held" at a value
+/// because the data cannot identify it (why: the test it failed, with the numbers).
+struct ParamStatus {
+  std::string name;
+  std::string status;  ///< "fitted" or "held"
+  double value = 0;    ///< SI
+  std::string why;
+};
+
 struct BaseCalibration {
   engine::ModelKind model = engine::model_kind<engine::LuGre>;
   std::string status = "ok";  ///< "ok" or why the calibration failed
@@ -116,6 +139,18 @@ struct BaseCalibration {
   double aic = 0;              ///< n_eff ln(SSE/n) + 2 k on the fit set
   int evals = 0;
   std::vector<StageScore> stages;
+  /// Statistics scoring: the RMS of the tolerance-scaled statistics residuals (slip_stats.h) over
+  /// the fitted and the held-out windows [-] (1 = off by the tolerance); computed in both
+  /// scorings for the adequacy verdict.
+  double score_fit = 0, score_heldout = 0;
+  /// Every parameter of the model: fitted, or held and why (scale-free starts, diagnose_scale.h).
+  std::vector<ParamStatus> identifiability;
+  /// Rank of the Jacobian of the fit residuals at the optimum over the fitted parameters, and its
+  /// condition number (largest / smallest singular value); rank < fitted: some combination of
+  /// them is not identified (see weakest).
+  int jacobian_rank = 0;
+  double condition = 0;
+  std::string weakest;  ///< the parameters of the smallest singular direction, by weight
 };
 
 struct CandidateResult {
@@ -136,6 +171,7 @@ struct CandidateResult {
   /// than its base.
   bool at_base_point = false;
   int evals = 0;
+  double score_fit = 0, score_heldout = 0;  ///< statistics scores, as BaseCalibration's [-]
 };
 
 /// Mean residual in equal-count bins of one variable, for the base model and the extended one
@@ -178,6 +214,51 @@ struct Evidence {
   std::vector<StageScore> stages;           ///< base model's per-cycle scores
 };
 
+/// How one run was read (diagnose_record.h) and scored.
+struct RunReading {
+  std::string run;
+  std::string scoring;       ///< "time_domain" or "statistics"
+  std::string why;           ///< the reason for it
+  double noise_sigma = 0;    ///< per-sample noise [N]
+  double noise_rho = 0;      ///< its lag-1 autocorrelation [-]
+  std::size_t spikes = 0;    ///< impulsive spikes flagged and replaced
+  double spike_fraction = 0; ///< of the samples [-]
+  double preload = 0;        ///< F_d at the first samples [N]
+  bool from_rest = true;     ///< starts with the spring unloaded
+  bool stuck_at_start = true;
+  double burn_in = 0;        ///< simulated before the record's t = 0 (statistics scoring) [s]
+};
+
+/// Measured and predicted statistics of one stage window of one run.
+struct StatsComparison {
+  std::string run;
+  int stage = 0;
+  bool held = false;  ///< the stage's held-out part (else its fitted part)
+  SlipStats measured, base, extended;  ///< extended: the base's when no cause is named
+  double score_base = 0, score_extended = 0;  ///< RMS tolerance-scaled residual [-]
+};
+
+/// The verdict on the base models before any cause (issue 21 item 5): the chosen base against
+/// trivial predictors, and what it misses.
+struct Adequacy {
+  std::string verdict = "adequate";  ///< "adequate" or "inadequate"
+  std::vector<std::string> missing;  ///< what the base misses, per run, with the numbers
+  double noise_floor = 0;            ///< pooled per-sample noise of the records [N]
+  double rmse_constant_heldout = 0;  ///< a constant per run (its fitted part's mean) [N]
+  double rmse_base_heldout = 0;      ///< the chosen base, the same samples [N]
+  double score_constant_heldout = 0; ///< statistics score of no stick-slip (a constant) [-]
+  double score_base_heldout = 0;     ///< the chosen base's [-]
+};
+
+/// A calibrated model as `stickslip validate` rebuilds it: every parameter of the base model
+/// and, for an extended one, of its effect (SI), and the fitted sensor offset.
+struct CalibratedModel {
+  engine::ModelKind model = engine::model_kind<engine::LuGre>;
+  engine::ExtensionKind effect = engine::ExtensionKind::kNone;
+  std::vector<std::pair<std::string, double>> params;
+  double offset = 0;  ///< [N]
+};
+
 /// Series at the decimated sample times, for plots.
 struct RunSeries {
   std::string name;
@@ -191,14 +272,27 @@ struct RunHoldout {
   std::string run;
   double va = 0;                                 ///< the run's v_a [m/s]
   std::string status = "ok";                     ///< or why a refit failed
-  double rmse_base = 0, rmse_extended = 0;       ///< over the whole run [N]
-  double gain = 0;                               ///< 1 - extended / base [-]
+  double rmse_base = 0, rmse_extended = 0;       ///< over the whole run [N] (time domain)
+  double score_base = 0, score_extended = 0;     ///< statistics scores of its windows [-]
+  double gain = 0;                               ///< 1 - extended / base (RMSE or score) [-]
   std::vector<StageScore> stages_base, stages_extended;  ///< per-stage cycle statistics
   int evals = 0;
+  /// The run's measured statistics against those predicted by the refitted models, per window.
+  std::vector<StatsComparison> stats;
+  /// The predicted (extended) model against the measured record of the run, whole stage 1 (the
+  /// issue's "done" criteria): mean force within 10 %, median drop and drop rate within 30 %.
+  double mean_error = 0, drop_error = 0, rate_error = 0;  ///< relative [-]; NaN: no drops
+  bool reproduced = false;
 };
 
 struct Diagnosis {
   std::string dataset;
+  std::string scoring = "time_domain";  ///< "time_domain" or "statistics" (see readings)
+  std::vector<RunReading> readings;
+  Adequacy adequacy;
+  /// Measured and predicted statistics of every stage window (chosen base, extended model).
+  std::vector<StatsComparison> statistics;
+  CalibratedModel base_fit, extended_fit;  ///< extended_fit = base_fit when the cause is none
   engine::ModelKind base_model = engine::model_kind<engine::LuGre>;
   std::vector<ParamEstimate> base_params;
   std::string cause = "none";
@@ -214,6 +308,7 @@ struct Diagnosis {
   /// RMSE over every left-out sample and its gain.
   std::vector<RunHoldout> run_holdouts;
   double rmse_base_heldout_runs = 0, rmse_extended_heldout_runs = 0, gain_heldout_runs = 0;
+  double score_base_heldout_runs = 0, score_extended_heldout_runs = 0;  ///< statistics [-]
   double seconds = 0;  ///< wall time [s]
   int evaluations = 0;
   DiagnoseOptions options;
@@ -226,6 +321,14 @@ Diagnosis diagnose(const measured::MeasuredDataset& data, const DiagnoseOptions&
 /// diagnosis.json content (fields of issue 5; NaN/Inf as null). series are not included.
 /// Follows schemas/diagnosis.schema.json.
 nlohmann::json to_json(const Diagnosis& d);
+/// A window's statistics and a run's reading as JSON (the "slipstats" and "reading" of
+/// schemas/diagnosis.schema.json).
+nlohmann::json stats_to_json(const SlipStats& s);
+nlohmann::json reading_to_json(const RunReading& r);
+/// A calibrated model as JSON ({"model", "effect", "params": {name: value}, "offset"}) and back
+/// (std::invalid_argument naming a bad field; engine names are checked when the model is built).
+nlohmann::json calibrated_json(const CalibratedModel& m);
+CalibratedModel calibrated_from_json(const nlohmann::json& j);
 /// The evidence view that points at a cause: "velocity", "stick_time", "position" (residual
 /// profiles), "x_spectrum", "t_spectrum", "stage_levels"; "" for "none" or an unknown id.
 /// write_report marks its panel of evidence.png, and the server's diagnosis resource names it

@@ -104,7 +104,7 @@ class Api {
   /// the routes. scheduler (studies) and diagnoses may be null (then jobs of that kind are only
   /// queued; cancel acts on the store directly). health (may be null): /healthz reports it.
   Api(ApiOptions options, JobScheduler* scheduler = nullptr, JobScheduler* diagnoses = nullptr,
-      std::shared_ptr<const Health> health = nullptr);
+      std::shared_ptr<const Health> health = nullptr, JobScheduler* validations = nullptr);
 
   /// Routes and handles one request. Never throws.
   Response handle(const Request& request) const;
@@ -132,6 +132,8 @@ class Api {
                       std::function<Response(const Request&, const std::string&)> get);
   JobResource study_resource(JobScheduler* scheduler) const;      // api.cpp
   JobResource diagnosis_resource(JobScheduler* scheduler) const;  // api_diagnoses.cpp
+  JobResource validation_resource(JobScheduler* scheduler) const;  // api_validations.cpp
+  void add_validation_routes();                                    // api_validations.cpp
 
   Response get_study(const Request& r, const std::string& id) const;
   Response get_runs(const Request& r, const std::string& id) const;
@@ -142,6 +144,8 @@ class Api {
   Response get_report_file(const Request& r, const std::string& date, const std::string& sub,
                            const std::string& name) const;
   Response list_diagnosis_traces(const Request& r, const std::string& id) const;
+  Response list_validation_traces(const Request& r, const std::string& id) const;
+  Response get_validation_trace(const Request& r, const std::string& id, const std::string& run) const;
   Response get_diagnosis_trace(const Request& r, const std::string& id,
                                const std::string& run) const;
   Response healthz(const Request& r) const;
@@ -155,7 +159,7 @@ class Api {
   ApiOptions options_;
   std::shared_ptr<const Health> health_;
   mutable StorePool pool_;
-  JobResource studies_, diagnoses_;
+  JobResource studies_, diagnoses_, validations_;
   Router router_;
   mutable std::array<std::atomic<std::uint64_t>, 6> responses_{};
   struct CachedStudy {

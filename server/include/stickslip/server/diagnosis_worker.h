@@ -25,6 +25,7 @@
 
 #include "stickslip/diagnosis/diagnose.h"
 #include "stickslip/server/job_worker.h"
+#include "stickslip/server/progress_board.h"
 
 namespace stickslip::server {
 
@@ -61,8 +62,9 @@ struct DiagnosisWorkerOptions {
   bool IsValid(std::vector<std::string>* errors = nullptr) const;
 };
 
-/// The "run this job" step of a diagnosis: parses the stored request and calls fn.
-RunJobFn diagnosis_runner(DiagnoseFn fn, int threads);
+/// The "run this job" step of a diagnosis: parses the stored request and calls fn; the
+/// diagnosis' progress goes to board (may be null) while it runs.
+RunJobFn diagnosis_runner(DiagnoseFn fn, int threads, std::shared_ptr<ProgressBoard> board = nullptr);
 
 class DiagnosisWorker final : public JobWorker {
  public:
@@ -70,6 +72,13 @@ class DiagnosisWorker final : public JobWorker {
                   std::shared_ptr<Health> health = nullptr);
   /// The id of the diagnosis being computed now, if any.
   std::optional<std::string> running() const;
+  /// The running diagnosis' progress (phase, models or candidates, evaluations, time left).
+  std::optional<nlohmann::json> progress(const std::string& id) const override;
+
+ private:
+  DiagnosisWorker(std::filesystem::path db, DiagnosisWorkerOptions options, DiagnoseFn fn,
+                  std::shared_ptr<Health> health, std::shared_ptr<ProgressBoard> board);
+  std::shared_ptr<ProgressBoard> board_;
 };
 
 }  // namespace stickslip::server

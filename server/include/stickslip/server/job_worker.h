@@ -32,6 +32,8 @@
 #include <thread>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "stickslip/server/health.h"
 #include "stickslip/store/store.h"
 
@@ -53,6 +55,9 @@ class JobScheduler {
   virtual void notify() = 0;
   /// Cancels a job of this kind; store is the calling thread's own connection.
   virtual CancelOutcome cancel(store::Store& store, const std::string& id) = 0;
+  /// The live progress of a job it runs now (a diagnosis' phase and evaluations), if it keeps
+  /// one; shown by GET on the job. Thread-safe.
+  virtual std::optional<nlohmann::json> progress(const std::string& /*id*/) const { return std::nullopt; }
 };
 
 /// Cancellation without a worker: a queued or running job of kind becomes cancelled; a

@@ -4,11 +4,15 @@
 
 #include <cstdint>
 #include <functional>
+#include <memory>
+#include <optional>
+#include <utility>
 #include <limits>
 #include <string>
 #include <vector>
 
 #include "stickslip/diagnosis/detail/diagnose_features.h"
+#include "stickslip/diagnosis/detail/diagnose_record.h"
 #include "stickslip/engine/params.h"
 #include "stickslip/diagnosis/diagnose.h"
 #include "stickslip/measured/measured.h"
@@ -34,7 +38,19 @@ struct RunData {
   /// slips). anchor_t = t_on [s].
   double anchor_tau = std::numeric_limits<double>::quiet_NaN();
   double anchor_t = 0;
+  /// The model-free reading of the run at its full rate (diagnose_record.h): noise, spikes,
+  /// initial state, and the statistics of every stage's fitted and held-out part.
+  RecordInfo rec;
+  /// Statistics scoring (Span::kStats, diagnose_statfit.h): the simulated burn-in before the
+  /// record's t = 0 [s], and per stage the simulated span whose statistics predict the stage's [s].
+  double settle = 0;
+  std::vector<double> stats_span;
+  /// Left out of a whole-run fold (statistics scoring): not simulated while fitting; scored on
+  /// every window when Problem::score_left_out.
+  bool left_out = false;
 };
+
+class ProgressMeter;
 
 struct Problem {
   std::vector<RunData> runs;
@@ -42,11 +58,26 @@ struct Problem {
   bool fit_offset = true;
   /// DiagnoseOptions::stop_requested: when it returns true, evaluate fails at once ("cancelled").
   std::function<bool()> stop;
+  /// The runs are scored on their statistics (Span::kStats) rather than sample by sample: some
+  /// run is not phase-locked (RecordInfo::phase_locked).
+  bool stats = false;
+  /// Statistics scoring of a whole-run fold: simulate the left-out runs and score all their
+  /// windows as held out (the others' windows are then not scored).
+  bool score_left_out = false;
+  /// Ticked once per evaluation (null: no progress reporting).
+  std::shared_ptr<ProgressMeter> meter;
 };
+
+/// The numerator and denominator of a ratio fit "a/b" (ParamDef::fit.relative_to); nullopt for a
+/// plain parameter name.
+std::optional<std::pair<std::string, std::string>> ratio_parts(const std::string& name);
+
+/// The stages cut to [0, t_end] [s].
+std::vector<engine::Stage> stages_until(const std::vector<engine::Stage>& stages, double t_end);
 
 /// One scalar parameter in the unit box: u in [0, 1] maps to [lo, hi] linearly or in log.
 struct ParamSpec {
-  std::string name;  ///< engine parameter name, or "F_C/F_S" (ratio, applied after F_S)
+  std::string name;  ///< engine parameter name, or a ratio "a/b" (fits a / b; applied after b)
   double lo, hi;
   bool log;
   double init;
@@ -59,6 +90,8 @@ struct ParamSpec {
 struct FitModel {
   engine::SimConfig base;  ///< model kind, friction parameters (fixed ones), extension kind
   std::vector<ParamSpec> specs;
+  /// Sets the parameters theta (SI values, one per spec) in c.
+  void apply(engine::SimConfig& c, const std::vector<double>& theta) const;
   /// Configuration for a run with parameters theta (SI values, one per spec).
   engine::SimConfig config(const RunData& run, const std::vector<double>& theta, double t_end,
                    double rtol) const;
@@ -73,8 +106,10 @@ struct RunSim {
 
 /// kShort: fit samples before short_end; kFit: all fit samples; kFull: every sample (held-out
 /// scored too); kFeatures: like kFit, but the score is the per-stage cycle features (mean,
-/// amplitude, period) of the fit windows, which do not depend on slip timing.
-enum class Span { kShort, kFit, kFull, kFeatures };
+/// amplitude, period) of the fit windows, which do not depend on slip timing; kStats: the
+/// statistics of the stick-slip of every stage (diagnose_statfit.h), fitted windows in sse_fit and
+/// feat, held-out windows in sse_held.
+enum class Span { kShort, kFit, kFull, kFeatures, kStats };
 
 struct Evaluation {
   bool ok = false;
@@ -82,7 +117,10 @@ struct Evaluation {
   double sse_fit = 0, sse_held = 0, offset = 0;
   std::size_t n_fit = 0, n_held = 0;
   std::vector<RunSim> sims;  ///< per run
-  std::vector<double> feat;  ///< kFeatures: the feature residuals (fixed length per problem)
+  std::vector<double> feat;  ///< kFeatures, kStats: the residuals (fixed length per problem)
+  /// kStats: the simulated statistics per run and window (aligned with RecordInfo::windows),
+  /// and per run and whole stage (simulated_whole).
+  std::vector<std::vector<SlipStats>> stats, whole;
 };
 
 /// Simulates every run up to the span's end and scores the samples. Short: fit samples with
@@ -106,11 +144,9 @@ struct FitResult {
 FitResult fit(const Problem& p, const FitModel& m, const std::vector<std::vector<double>>& starts,
               Span span, double short_end, int max_evals);
 
-/// Standard errors (SI) from the finite-difference Jacobian, inflated by n / n_eff; cov_si
-/// (optional) receives the whole covariance (SI, row-major k x k) when it could be computed.
-std::vector<double> standard_errors(const Problem& p, const FitModel& m,
-                                    const std::vector<double>& theta, double n_over_neff,
-                                    int* evals, std::vector<double>* cov_si = nullptr);
+/// The first forward-difference step in the unit box of the Levenberg-Marquardt fits of a span
+/// (time domain 1e-4; cycle features and statistics 2e-3).
+double jacobian_step(Span span);
 
 /// sqrt(sse / n) [N]; NaN when n = 0.
 double rms(double sse, std::size_t n);

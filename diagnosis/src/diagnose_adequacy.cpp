@@ -1,0 +1,146 @@
+// The adequacy verdict (diagnose_adequacy.h).
+#include "stickslip/diagnosis/detail/diagnose_adequacy.h"
+
+#include <cmath>
+#include <cstdio>
+#include <limits>
+
+#include "stickslip/diagnosis/detail/diagnose_statfit.h"
+
+namespace stickslip::diagnosis::detail {
+
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+double score_of(const SlipStats& m, const SlipStats& s, const StatsSpec& spec) {
+  std::vector<double> r;
+  stats_residuals(m, s, spec, &r);
+  double ss = 0;
+  for (double v : r) ss += v * v;
+  return std::sqrt(ss / static_cast<double>(r.size()));
+}
+
+std::string window_name(const StatsComparison& c) {
+  return c.run + " stage " + std::to_string(c.stage + 1) + (c.held ? " (held out)" : "");
+}
+
+std::string fmt(const char* f, double a, double b = 0, double c = 0) {
+  char buf[256];
+  std::snprintf(buf, sizeof buf, f, a, b, c);
+  return buf;
+}
+
+/// What the model misses in one window (appended to *missing).
+void judge_window(const StatsComparison& c, const StatsSpec& spec, std::vector<std::string>* missing) {
+  const SlipStats &m = c.measured, &s = c.base;
+  Regime rm, rs;
+  const std::string at = window_name(c) + ": ";
+  if (clear_regime(m, spec, &rm) && clear_regime(s, spec, &rs) && rm != rs) {
+    missing->push_back(at + "regime " + to_string(rm) + " measured, " + to_string(rs) + " predicted" +
+                       (rs == Regime::kCreep ? " (no oscillation)" : ""));
+    return;
+  }
+  if (m.regime != Regime::kCreep && s.regime != Regime::kCreep) {
+    const double fd = s.drop_median / m.drop_median, fr = s.rate / m.rate;
+    if (fd > kAdequateFactor || fd < 1 / kAdequateFactor)
+      missing->push_back(at + fmt("drop size off by a factor %.2f (%.3g N predicted, %.3g N measured)", fd,
+                                  s.drop_median, m.drop_median));
+    if (fr > kAdequateFactor || fr < 1 / kAdequateFactor)
+      missing->push_back(at + fmt("drop rate off by a factor %.2f (%.3g /s predicted, %.3g /s measured)",
+                                  fr, s.rate, m.rate));
+  }
+  // In per cent of the larger of the window's mean and the run's level (a vibrating stage's mean
+  // may nearly vanish).
+  const double dm = (s.mean - m.mean) / std::max(std::fabs(m.mean), std::fabs(spec.level));
+  if (std::fabs(dm) > kAdequateMean)
+    missing->push_back(at + fmt("mean level off by %+.0f %% of the level (%.4g N predicted, %.4g N measured)",
+                                100 * dm, s.mean, m.mean));
+}
+
+}  // namespace
+
+bool clear_regime(const SlipStats& s, const StatsSpec& spec, Regime* regime) {
+  *regime = s.regime;
+  if (s.drops == 0) return true;
+  return s.drops >= 2 * kMinDrops && s.drop_median >= kClearThresholds * spec.threshold;
+}
+
+std::vector<StatsComparison> compare_stats(const Problem& P, const Evaluation& base,
+                                           const Evaluation* ext) {
+  std::vector<StatsComparison> out;
+  for (std::size_t k = 0; k < P.runs.size(); ++k) {
+    const RunData& r = P.runs[k];
+    for (std::size_t j = 0; j < r.rec.windows.size(); ++j) {
+      const WindowStats& w = r.rec.windows[j];
+      if (k >= base.stats.size() || j >= base.stats[k].size()) continue;
+      StatsComparison c;
+      c.run = r.name;
+      c.stage = w.stage;
+      c.held = w.held;
+      c.measured = w.stats;
+      c.base = base.stats[k][j];
+      const bool have_ext = ext && k < ext->stats.size() && j < ext->stats[k].size();
+      c.extended = have_ext ? ext->stats[k][j] : c.base;
+      c.score_base = score_of(c.measured, c.base, w.spec);
+      c.score_extended = score_of(c.measured, c.extended, w.spec);
+      out.push_back(c);
+    }
+  }
+  return out;
+}
+
+double noise_floor(const Problem& P) {
+  double s2 = 0;
+  for (const RunData& r : P.runs) s2 += r.rec.noise.sigma * r.rec.noise.sigma;
+  return P.runs.empty() ? kNaN : std::sqrt(s2 / static_cast<double>(P.runs.size()));
+}
+
+double noise_inflation(const Problem& P) {
+  double rho = 0;
+  for (const RunData& r : P.runs) rho += r.rec.noise.rho;
+  rho = P.runs.empty() ? 0.0 : std::clamp(rho / static_cast<double>(P.runs.size()), 0.0, 0.99);
+  return (1 + rho) / (1 - rho);
+}
+
+Adequacy judge_adequacy(const Problem& P, const BaseFit& base, const std::vector<StatsComparison>& cmp) {
+  Adequacy a;
+  a.noise_floor = noise_floor(P);
+  // A constant per run: its fitted samples' mean, scored on its held-out samples.
+  double sse = 0;
+  std::size_t n = 0;
+  for (const RunData& r : P.runs) {
+    double s = 0;
+    std::size_t m = 0;
+    for (std::size_t i = 0; i < r.y.size(); ++i)
+      if (r.role[i] == kFit) s += r.y[i], ++m;
+    if (m == 0) continue;
+    const double c = s / static_cast<double>(m);
+    for (std::size_t i = 0; i < r.y.size(); ++i)
+      if (r.role[i] == kHeld) sse += (r.y[i] - c) * (r.y[i] - c), ++n;
+  }
+  a.rmse_constant_heldout = rms(sse, n);
+  a.rmse_base_heldout = base.cal.rmse_heldout;
+  double sf, sh;
+  std::size_t nf, nh;
+  constant_stats_score(P, &sf, &nf, &sh, &nh);
+  a.score_constant_heldout = rms(sh, nh);
+  a.score_base_heldout = base.cal.score_heldout;
+  if (!P.stats && a.rmse_base_heldout >= a.rmse_constant_heldout)
+    a.missing.push_back(fmt("predicts the held-out samples worse than a constant per run (RMSE %.3g N "
+                            "against %.3g N)", a.rmse_base_heldout, a.rmse_constant_heldout));
+  if (!(a.score_base_heldout < a.score_constant_heldout))
+    a.missing.push_back(fmt("predicts the held-out statistics no better than no stick-slip (score %.3g "
+                            "against %.3g)", a.score_base_heldout, a.score_constant_heldout));
+  for (const StatsComparison& c : cmp) {
+    if (c.held) continue;  // the fitted part: what the base was made to reproduce
+    for (const RunData& r : P.runs)
+      if (r.name == c.run)
+        for (const WindowStats& w : r.rec.windows)
+          if (w.stage == c.stage && w.held == c.held) judge_window(c, w.spec, &a.missing);
+  }
+  a.verdict = a.missing.empty() ? "adequate" : "inadequate";
+  return a;
+}
+
+}  // namespace stickslip::diagnosis::detail

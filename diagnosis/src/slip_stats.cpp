@@ -1,0 +1,371 @@
+// Noise, spikes and the statistics of stick-slip (diagnose_stats.h).
+#include "stickslip/diagnosis/slip_stats.h"
+
+#include <algorithm>
+#include <cmath>
+#include <complex>
+#include <deque>
+#include <limits>
+#include <numeric>
+#include <unsupported/Eigen/FFT>
+
+namespace stickslip::diagnosis {
+
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+/// Linear-interpolated quantile q of v (copied) [same unit]; NaN when empty.
+double quantile(std::vector<double> v, double q) {
+  if (v.empty()) return kNaN;
+  std::sort(v.begin(), v.end());
+  const double pos = q * static_cast<double>(v.size() - 1);
+  const auto i = static_cast<std::size_t>(std::floor(pos));
+  const double f = pos - static_cast<double>(i);
+  return i + 1 < v.size() ? v[i] * (1 - f) + v[i + 1] * f : v[i];
+}
+
+double median(std::vector<double> v) { return quantile(std::move(v), 0.5); }
+
+/// Robust variance: (1.4826 MAD)^2.
+double robust_variance(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  const double m = median(v);
+  for (double& x : v) x = std::fabs(x - m);
+  const double s = 1.4826 * median(std::move(v));
+  return s * s;
+}
+
+/// var d_h / var d_1 for AR(1) noise of coefficient rho, with var d_h ~ (1 - q)(3 - q), q = rho^h.
+double ratio_of(double rho, int h) {
+  const double q = std::pow(rho, h);
+  return (1 - q) * (3 - q) / ((1 - rho) * (3 - rho));
+}
+
+/// rho from R = var d_h / var d_1 (ratio_of increases on [0, 1) from 1 to h): bisection.
+double rho_of_ratio(double R, int h) {
+  double lo = 0.0, hi = 0.99;
+  if (R <= ratio_of(lo, h)) return lo;
+  if (R >= ratio_of(hi, h)) return hi;
+  for (int it = 0; it < 60 && hi - lo > 1e-9; ++it) {
+    const double mid = 0.5 * (lo + hi);
+    (ratio_of(mid, h) < R ? lo : hi) = mid;
+  }
+  return 0.5 * (lo + hi);
+}
+
+/// Least-squares slope of y[i0..i1) against i dt; NaN with fewer than 3 samples.
+double ls_slope(const std::vector<double>& y, std::size_t i0, std::size_t i1, double dt) {
+  if (i1 < i0 + 3) return kNaN;
+  const double n = static_cast<double>(i1 - i0);
+  double sx = 0, sy = 0, sxx = 0, sxy = 0;
+  for (std::size_t i = i0; i < i1; ++i) {
+    const double x = static_cast<double>(i - i0) * dt;
+    sx += x;
+    sy += y[i];
+    sxx += x * x;
+    sxy += x * y[i];
+  }
+  const double den = n * sxx - sx * sx;
+  return den > 0 ? (n * sxy - sx * sy) / den : kNaN;
+}
+
+/// The drops of z: a drop starts when z falls more than h below the maximum of the last `lag`
+/// samples since the previous trough (a slip, or the falling half of an oscillation; a noisy
+/// ramp does not fall that fast), at that maximum (the peak), and ends at the minimum since the
+/// peak (the trough) once z has risen h above it.
+struct Drop {
+  std::size_t peak, trough;
+};
+
+std::vector<Drop> find_drops(const std::vector<double>& z, double h, std::size_t lag) {
+  std::vector<Drop> drops;
+  std::deque<std::size_t> q;  // indices of decreasing z over the window (sliding maximum)
+  bool falling = false;
+  std::size_t peak = 0, trough = 0, from = 0;
+  for (std::size_t k = 0; k < z.size(); ++k) {
+    if (falling) {
+      if (z[k] < z[trough]) trough = k;
+      if (z[k] > z[trough] + h) {
+        drops.push_back({peak, trough});
+        falling = false;
+        from = trough;
+        q.clear();
+        for (std::size_t j = std::max(from, k > lag ? k - lag : 0); j < k; ++j) {
+          while (!q.empty() && z[q.back()] <= z[j]) q.pop_back();
+          q.push_back(j);
+        }
+      } else {
+        continue;
+      }
+    }
+    while (!q.empty() && (q.front() + lag < k || q.front() < from)) q.pop_front();
+    while (!q.empty() && z[q.back()] <= z[k]) q.pop_back();
+    q.push_back(k);
+    if (z[q.front()] - z[k] > h) {
+      falling = true;
+      peak = q.front();
+      trough = k;
+    }
+  }
+  return drops;
+}
+
+/// Mean of z over the m samples from i towards the side of m's sign (i included), within z.
+double side_mean(const std::vector<double>& z, std::size_t i, int m) {
+  const auto n = static_cast<std::ptrdiff_t>(z.size());
+  const auto a = static_cast<std::ptrdiff_t>(i);
+  const std::ptrdiff_t b = std::clamp<std::ptrdiff_t>(a + (m > 0 ? m - 1 : m + 1), 0, n - 1);
+  const std::ptrdiff_t lo = std::min(a, b), hi = std::max(a, b);
+  double s = 0;
+  for (std::ptrdiff_t k = lo; k <= hi; ++k) s += z[static_cast<std::size_t>(k)];
+  return s / static_cast<double>(hi - lo + 1);
+}
+
+/// Frequency of the strongest log-spaced band of the periodogram of y (interval dt), above f_lo.
+double dominant_frequency(const std::vector<double>& y, double dt, int block, double f_lo) {
+  // Block averages (the smoothing length: a low-pass), linear trend removed.
+  block = std::max(block, 1);
+  std::vector<double> b;
+  b.reserve(y.size() / static_cast<std::size_t>(block) + 1);
+  for (std::size_t i = 0; i + static_cast<std::size_t>(block) <= y.size(); i += static_cast<std::size_t>(block)) {
+    double s = 0;
+    for (int j = 0; j < block; ++j) s += y[i + static_cast<std::size_t>(j)];
+    b.push_back(s / block);
+  }
+  const double h = dt * block;
+  if (b.size() < 16) return kNaN;
+  const double slope = ls_slope(b, 0, b.size(), h);
+  const double mean = std::accumulate(b.begin(), b.end(), 0.0) / static_cast<double>(b.size());
+  const double tmid = 0.5 * static_cast<double>(b.size() - 1) * h;
+  std::size_t n2 = 1;
+  while (n2 < b.size()) n2 <<= 1;
+  std::vector<double> in(n2, 0.0);
+  for (std::size_t i = 0; i < b.size(); ++i)
+    in[i] = b[i] - mean - (std::isfinite(slope) ? slope * (static_cast<double>(i) * h - tmid) : 0.0);
+  Eigen::FFT<double> fft;
+  std::vector<std::complex<double>> out;
+  fft.fwd(out, in);
+  const double df = 1.0 / (static_cast<double>(n2) * h);
+  const double f_hi = 0.4 / h;
+  const double lo = std::max(f_lo, 2.0 / (static_cast<double>(b.size()) * h));
+  if (!(lo < f_hi)) return kNaN;
+  // Mean power density per band of 1/12 decade.
+  const int bands = std::max(1, static_cast<int>(std::ceil(12.0 * std::log10(f_hi / lo))));
+  std::vector<double> power(static_cast<std::size_t>(bands), 0.0), wf(power.size(), 0.0);
+  std::vector<int> count(power.size(), 0);
+  for (std::size_t k = 1; k < n2 / 2; ++k) {
+    const double f = static_cast<double>(k) * df;
+    if (f < lo || f >= f_hi) continue;
+    const int j = std::min(bands - 1, static_cast<int>(12.0 * std::log10(f / lo)));
+    const double p = std::norm(out[k]);
+    power[static_cast<std::size_t>(j)] += p;
+    wf[static_cast<std::size_t>(j)] += p * f;
+    ++count[static_cast<std::size_t>(j)];
+  }
+  int best = -1;
+  double best_density = -1;
+  for (int j = 0; j < bands; ++j) {
+    const auto u = static_cast<std::size_t>(j);
+    if (count[u] == 0) continue;
+    const double d = power[u] / count[u];
+    if (d > best_density) {
+      best_density = d;
+      best = j;
+    }
+  }
+  if (best < 0 || power[static_cast<std::size_t>(best)] <= 0) return kNaN;
+  return wf[static_cast<std::size_t>(best)] / power[static_cast<std::size_t>(best)];
+}
+
+double log_ratio(double a, double b, double tol) {
+  return std::log(a / b) / std::log(tol);
+}
+
+}  // namespace
+
+NoiseEstimate estimate_noise(const std::vector<double>& y) {
+  NoiseEstimate e;
+  if (y.size() < 8) return e;
+  std::vector<double> d[4];
+  for (int h = 1; h <= 3; h += 1)
+    for (std::size_t k = static_cast<std::size_t>(h); k + static_cast<std::size_t>(h) < y.size(); ++k)
+      d[h].push_back(y[k] - 0.5 * (y[k - static_cast<std::size_t>(h)] + y[k + static_cast<std::size_t>(h)]));
+  const double v1 = robust_variance(std::move(d[1]));
+  if (!(v1 > 0)) return e;
+  // From lag 2 and from lag 3; the smaller level is kept: lag 3 resolves strongly correlated
+  // noise better, lag 2 sees less of a fast oscillation (either inflates the estimate).
+  bool first = true;
+  for (int h = 2; h <= 3; ++h) {
+    const double rho = rho_of_ratio(robust_variance(std::move(d[h])) / v1, h);
+    const double sigma = std::sqrt(v1 / (0.5 * (1 - rho) * (3 - rho)));
+    if (first || sigma < e.sigma) e = {sigma, rho};
+    first = false;
+  }
+  return e;
+}
+
+std::vector<double> despike(const std::vector<double>& y, double sigma,
+                            std::vector<std::size_t>* flagged) {
+  std::vector<double> out = y;
+  if (flagged) flagged->clear();
+  if (!(sigma > 0) || y.size() < 2 * kSpikeHalf + 1) return out;
+  const auto w = static_cast<std::size_t>(kSpikeHalf);
+  std::vector<double> side(w);
+  for (std::size_t i = w; i + w < y.size(); ++i) {
+    std::copy(y.begin() + static_cast<std::ptrdiff_t>(i - w), y.begin() + static_cast<std::ptrdiff_t>(i), side.begin());
+    std::nth_element(side.begin(), side.begin() + static_cast<std::ptrdiff_t>(w / 2), side.end());
+    const double L = side[w / 2];
+    std::copy(y.begin() + static_cast<std::ptrdiff_t>(i + 1), y.begin() + static_cast<std::ptrdiff_t>(i + 1 + w), side.begin());
+    std::nth_element(side.begin(), side.begin() + static_cast<std::ptrdiff_t>(w / 2), side.end());
+    const double R = side[w / 2];
+    const double c = 0.5 * (L + R), dev = std::fabs(y[i] - c);
+    if (dev > kSpikeSigmas * sigma && std::fabs(L - R) < 0.5 * dev) {
+      out[i] = c;
+      if (flagged) flagged->push_back(i);
+    }
+  }
+  return out;
+}
+
+double averaged_noise(double sigma, double rho, int m) {
+  if (m <= 1) return sigma;
+  double s = 1.0, rk = 1.0;
+  for (int k = 1; k < m; ++k) {
+    rk *= rho;
+    s += 2.0 * (1.0 - static_cast<double>(k) / m) * rk;
+  }
+  return sigma * std::sqrt(std::max(s, 0.0) / m);
+}
+
+double smoothed_noise(const std::vector<double>& y, int m) {
+  m = std::max(m, 1);
+  const std::vector<double> z = moving_average(y, m);
+  const auto u = static_cast<std::size_t>(m);
+  if (z.size() < 2 * u + 8) return 0.0;
+  std::vector<double> d;
+  d.reserve(z.size());
+  for (std::size_t k = u; k + u < z.size(); ++k) d.push_back(z[k] - 0.5 * (z[k - u] + z[k + u]));
+  return std::sqrt(robust_variance(std::move(d)) / 1.5);
+}
+
+std::vector<double> moving_average(const std::vector<double>& y, int m) {
+  if (m <= 1 || y.empty()) return y;
+  std::vector<double> c(y.size() + 1, 0.0);
+  for (std::size_t i = 0; i < y.size(); ++i) c[i + 1] = c[i] + y[i];
+  std::vector<double> z(y.size());
+  const auto h = static_cast<std::ptrdiff_t>(m / 2);
+  const auto n = static_cast<std::ptrdiff_t>(y.size());
+  for (std::ptrdiff_t i = 0; i < n; ++i) {
+    const std::ptrdiff_t a = std::max<std::ptrdiff_t>(0, i - h), b = std::min(n, i - h + m);
+    z[static_cast<std::size_t>(i)] = (c[static_cast<std::size_t>(b)] - c[static_cast<std::size_t>(a)]) / static_cast<double>(b - a);
+  }
+  return z;
+}
+
+const char* to_string(Regime r) noexcept {
+  switch (r) {
+    case Regime::kCreep: return "creep";
+    case Regime::kStickSlip: return "stick_slip";
+    case Regime::kInertial: return "inertial";
+  }
+  return "creep";
+}
+
+double drop_threshold(double smoothed_noise_sd) {
+  return std::max(kThresholdSigmas * smoothed_noise_sd, 1e-6);
+}
+
+SlipStats slip_stats(const std::vector<double>& y, const StatsSpec& spec) {
+  SlipStats s;
+  const double dt = spec.dt;
+  s.duration = static_cast<double>(y.size()) * dt;
+  s.ramp_slope = s.creep = s.f_peak = kNaN;
+  if (y.size() < 4) {
+    s.mean = s.q05 = s.q95 = s.spread = kNaN;
+    return s;
+  }
+  const std::vector<double> z = moving_average(y, spec.smooth);
+  s.mean = std::accumulate(y.begin(), y.end(), 0.0) / static_cast<double>(y.size());
+  s.q05 = quantile(z, 0.05);
+  s.q95 = quantile(z, 0.95);
+  {  // local spread about a moving average over detrend_window
+    const int w = spec.detrend_window > 0
+                      ? std::max(3, static_cast<int>(std::lround(spec.detrend_window / dt)))
+                      : static_cast<int>(z.size()) * 2;
+    const std::vector<double> trend =
+        w >= static_cast<int>(z.size()) ? std::vector<double>(z.size(), s.mean) : moving_average(z, w);
+    double ss = 0;
+    for (std::size_t i = 0; i < z.size(); ++i) ss += (z[i] - trend[i]) * (z[i] - trend[i]);
+    s.spread = std::sqrt(ss / static_cast<double>(z.size()));
+  }
+  const std::vector<Drop> found = find_drops(z, spec.threshold, static_cast<std::size_t>(std::max(spec.lag, 1)));
+  std::vector<double> drops, intervals, falls, slopes, creeps;
+  for (std::size_t k = 0; k < found.size(); ++k) {
+    const std::size_t p = found[k].peak, tr = found[k].trough;
+    // Levels just before the peak and just after the trough (the extremes themselves are the
+    // noise's largest excursions there: a bias of ~2 smoothed sigmas).
+    drops.push_back(side_mean(z, p, -spec.smooth) - side_mean(z, tr, spec.smooth));
+    if (k == 0) continue;
+    intervals.push_back(static_cast<double>(p - found[k - 1].peak) * dt);
+    // The rise before this peak, from the previous trough.
+    const std::size_t t0 = found[k - 1].trough, p0 = found[k - 1].peak;
+    const double fall = static_cast<double>(t0 - p0), rise = static_cast<double>(p - t0);
+    if (!(rise > 0)) continue;
+    falls.push_back(fall / (fall + rise));
+    const auto at = [&](double frac) { return t0 + static_cast<std::size_t>(frac * rise); };
+    const double mid = ls_slope(z, at(0.2), at(0.6), dt);
+    const std::size_t edge = static_cast<std::size_t>(spec.smooth);  // the average rounds the corner
+    const std::size_t late_end = p > t0 + edge ? p - edge : p;
+    const double late = ls_slope(z, std::min(at(0.75), late_end), late_end, dt);
+    if (std::isfinite(mid) && spec.rise > 0) slopes.push_back(mid / spec.rise);
+    if (std::isfinite(mid) && std::isfinite(late) && mid > 0) creeps.push_back(late / mid);
+  }
+  s.drops = static_cast<int>(drops.size());
+  if (!drops.empty()) {
+    s.drop_median = median(drops);
+    s.drop_q25 = quantile(drops, 0.25);
+    s.drop_q75 = quantile(drops, 0.75);
+  }
+  s.rate = static_cast<double>(drops.size()) / s.duration;
+  if (!intervals.empty()) {
+    s.interval_median = median(intervals);
+    s.interval_q25 = quantile(intervals, 0.25);
+    s.interval_q75 = quantile(intervals, 0.75);
+    const double m = std::accumulate(intervals.begin(), intervals.end(), 0.0) / static_cast<double>(intervals.size());
+    double v = 0;
+    for (double x : intervals) v += (x - m) * (x - m);
+    s.interval_cv = m > 0 ? std::sqrt(v / static_cast<double>(intervals.size())) / m : 0.0;
+  }
+  if (!falls.empty()) s.fall_fraction = median(falls);
+  if (!slopes.empty()) s.ramp_slope = median(slopes);
+  if (!creeps.empty()) s.creep = median(creeps);
+  if (s.drops >= kMinDrops)
+    s.regime = s.fall_fraction >= kInertialFall ? Regime::kInertial : Regime::kStickSlip;
+  s.f_peak = dominant_frequency(y, dt, spec.smooth, spec.f_lo);
+  return s;
+}
+
+void stats_residuals(const SlipStats& m, const SlipStats& s, const StatsSpec& spec,
+                     std::vector<double>* r) {
+  const auto push = [&](bool have_m, bool have_s, double value) {
+    if (have_m && have_s) r->push_back(std::isfinite(value) ? value : kMissingStat);
+    else r->push_back(have_m == have_s ? 0.0 : kMissingStat);
+  };
+  // Level: 10 % of the measured mean is one unit (1 % of the spread when the mean is ~0).
+  const double scale = std::max({0.1 * std::fabs(m.mean), 0.1 * std::fabs(spec.level), 0.01 * (m.q95 - m.q05)});
+  r->push_back(scale > 0 ? (s.mean - m.mean) / scale : 0.0);
+  const double sim_spread = std::hypot(s.spread, spec.noise_sd);
+  push(m.spread > 0, sim_spread > 0, log_ratio(sim_spread, m.spread, 1.3));
+  const bool dm = m.regime != Regime::kCreep, ds = s.regime != Regime::kCreep;
+  push(dm, ds, log_ratio(s.drop_median, m.drop_median, 1.3));
+  push(dm, ds, log_ratio(s.rate, m.rate, 1.3));
+  push(dm, ds, (s.fall_fraction - m.fall_fraction) / 0.1);
+  const bool sm = m.regime == Regime::kStickSlip && std::isfinite(m.ramp_slope),
+             ss = s.regime == Regime::kStickSlip && std::isfinite(s.ramp_slope);
+  push(sm, ss, (s.ramp_slope - m.ramp_slope) / 0.1);
+  push(sm && std::isfinite(m.creep), ss && std::isfinite(s.creep), (s.creep - m.creep) / 0.2);
+  push(dm && std::isfinite(m.f_peak), ds && std::isfinite(s.f_peak), log_ratio(s.f_peak, m.f_peak, 1.3));
+}
+
+}  // namespace stickslip::diagnosis
