@@ -111,7 +111,11 @@ inline void poll_job(const fs::path& dir, const std::string& url, Job& job) {
   if (r.code != 0) return;
   const auto j = nlohmann::json::parse(r.out, nullptr, false);
   if (j.is_discarded() || !j.contains("state")) return;
-  if (j.contains("progress")) job.done = std::max<std::int64_t>(job.done, j["progress"]["done"]);
+  // A study's progress counts its confirmed runs; a diagnosis's (null or phase, evaluations,
+  // time left) confirms nothing stored.
+  if (job.collection == "studies" && j.contains("progress") && j["progress"].is_object() &&
+      j["progress"].contains("done") && j["progress"]["done"].is_number_integer())
+    job.done = std::max<std::int64_t>(job.done, j["progress"]["done"].get<std::int64_t>());
   if (j["state"] == "succeeded") job.succeeded = true;
   if (j["state"] == "failed" || j["state"] == "cancelled") job.ended = j["state"];
 }
