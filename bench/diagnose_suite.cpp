@@ -93,6 +93,58 @@ int random_suite(int first, int seeds, RandomFamily family, const std::vector<st
   return passed == total ? 0 : 1;
 }
 
+/// The cost of one fitting simulation per v_a and rtol (--time-sim).
+void time_simulations() {
+  for (double rtol : {1e-5, 1e-4, 1e-3})
+    for (double va : {0.0, 1.5e-3, 5e-3}) {
+      engine::SimConfig c = engine::SimConfig::seed(engine::model_kind<engine::LuGre>, va);
+      c.stages = {engine::Stage{3.5, 0.0, 1500}, engine::Stage{2.5, va, 1500}};
+      c.integrator.rtol = c.integrator.atol = rtol;
+      c.trace.rate = 4000;
+      const auto t0 = std::chrono::steady_clock::now();
+      const engine::SimResult r = engine::simulate(c);
+      std::printf("rtol %g va %g: %.3f s, %zu trace samples\n", rtol, va,
+                  std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(),
+                  r.trace.size());
+    }
+}
+
+/// Every candidate of a diagnosis (--verbose): where each fit went.
+void print_verbose(const diagnosis::Diagnosis& d) {
+  std::printf("%s(%d model evaluations)\n", diagnosis::summary_text(d).c_str(), d.evaluations);
+  // Refitted base parameters, fit RMSE and LR of every candidate: where a fit went.
+  for (const auto& cand : d.candidates) {
+    std::printf("  %-24s fit %.4f held %.4f lr %.1f p %.2g%s |", to_string(cand.kind),
+                cand.rmse_fit, cand.rmse_heldout, cand.lr, cand.p_value,
+                cand.at_base_point ? " (at base point)" : "");
+    for (const auto& p : cand.base_params) std::printf(" %s=%.6g", p.name.c_str(), p.value);
+    for (const auto& p : cand.params) std::printf(" %s=%.6g", p.name.c_str(), p.value);
+    std::printf("\n");
+  }
+  for (const auto& cal : d.calibrations)
+    if (cal.model == d.base_model)
+      std::printf("  base fit %.4f held-out %.4f rho %.3f n %.0f n_eff %.0f\n", cal.rmse_fit,
+                  cal.rmse_heldout, d.evidence.rho, d.evidence.n, d.evidence.n_eff);
+}
+
+/// The confusion table: rows the hidden cases, columns the named causes.
+void print_confusion(const std::vector<std::string>& rows, const std::vector<std::string>& causes,
+                     std::map<std::string, std::map<std::string, int>>& table, int seeds) {
+  std::printf("\nConfusion table (rows: hidden case; columns: named cause; counts over %d seeds)\n",
+              seeds);
+  const char* abbrev[] = {"none", "visc", "strib", "dwell", "wavi", "drift", "load", "sensor", "damp"};
+  std::printf("| %-22s |", "case");
+  for (const char* a : abbrev) std::printf(" %6s |", a);
+  std::printf("\n|%s|", std::string(24, '-').c_str());
+  for (std::size_t i = 0; i < causes.size(); ++i) std::printf("%s|", std::string(8, '-').c_str());
+  std::printf("\n");
+  for (const auto& r : rows) {
+    std::printf("| %-22s |", r.c_str());
+    for (const auto& k : causes) std::printf(" %6d |", table[r][k]);
+    std::printf("\n");
+  }
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -127,19 +179,8 @@ int main(int argc, char** argv) {
                         lugre_only, verbose);
   if (full) family = diagnosis::SuiteDatasets::kFull;
   if (seed_conditions) family = diagnosis::SuiteDatasets::kSeed;
-  if (time_sim) {  // cost of one fitting simulation per v_a
-    for (double rtol : {1e-5, 1e-4, 1e-3})
-      for (double va : {0.0, 1.5e-3, 5e-3}) {
-        engine::SimConfig c = engine::SimConfig::seed(engine::model_kind<engine::LuGre>, va);
-        c.stages = {engine::Stage{3.5, 0.0, 1500}, engine::Stage{2.5, va, 1500}};
-        c.integrator.rtol = c.integrator.atol = rtol;
-        c.trace.rate = 4000;
-        const auto t0 = std::chrono::steady_clock::now();
-        const engine::SimResult r = engine::simulate(c);
-        std::printf("rtol %g va %g: %.3f s, %zu trace samples\n", rtol, va,
-                    std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(),
-                    r.trace.size());
-      }
+  if (time_sim) {
+    time_simulations();
     return 0;
   }
   const auto cases = diagnosis::hidden_effect_cases();
@@ -166,38 +207,11 @@ int main(int argc, char** argv) {
       std::printf("%-24s %4d %-24s %7.3f %7.3f %11.4g %11.4g %6.1f %5s\n", c.name.c_str(), s,
                   d.cause.c_str(), d.gain, d.gain_heldout_runs, v.truth, v.recovered, d.seconds,
                   v.ok() ? "yes" : "NO");
-      if (verbose) {
-        std::printf("%s(%d model evaluations)\n", diagnosis::summary_text(d).c_str(), d.evaluations);
-        // Refitted base parameters, fit RMSE and LR of every candidate: where a fit went.
-        for (const auto& cand : d.candidates) {
-          std::printf("  %-24s fit %.4f held %.4f lr %.1f p %.2g%s |", to_string(cand.kind),
-                      cand.rmse_fit, cand.rmse_heldout, cand.lr, cand.p_value,
-                      cand.at_base_point ? " (at base point)" : "");
-          for (const auto& p : cand.base_params) std::printf(" %s=%.6g", p.name.c_str(), p.value);
-          for (const auto& p : cand.params) std::printf(" %s=%.6g", p.name.c_str(), p.value);
-          std::printf("\n");
-        }
-        for (const auto& cal : d.calibrations)
-          if (cal.model == d.base_model)
-            std::printf("  base fit %.4f held-out %.4f rho %.3f n %.0f n_eff %.0f\n", cal.rmse_fit,
-                        cal.rmse_heldout, d.evidence.rho, d.evidence.n, d.evidence.n_eff);
-      }
+      if (verbose) print_verbose(d);
       std::fflush(stdout);
     }
   }
-  std::printf("\nConfusion table (rows: hidden case; columns: named cause; counts over %d seeds)\n",
-              seeds);
-  const char* abbrev[] = {"none", "visc", "strib", "dwell", "wavi", "drift", "load", "sensor", "damp"};
-  std::printf("| %-22s |", "case");
-  for (const char* a : abbrev) std::printf(" %6s |", a);
-  std::printf("\n|%s|", std::string(24, '-').c_str());
-  for (std::size_t i = 0; i < causes.size(); ++i) std::printf("%s|", std::string(8, '-').c_str());
-  std::printf("\n");
-  for (const auto& r : rows) {
-    std::printf("| %-22s |", r.c_str());
-    for (const auto& k : causes) std::printf(" %6d |", table[r][k]);
-    std::printf("\n");
-  }
+  print_confusion(rows, causes, table, seeds);
   std::printf("\n%d of %d diagnoses met every requirement; %.0f s diagnosing in all\n", passed,
               total, seconds);
   return passed == total ? 0 : 1;
