@@ -220,7 +220,6 @@ Starts candidate_starts(const CandidateInputs& in, engine::ExtensionKind kind,
   const Problem& P = in.P;
   const BaseFit& base = in.base;
   const DiagnoseOptions& o = in.o;
-  const std::size_t nb = base.theta.size();
   const std::vector<double>& origin = in.origin.empty() ? base.theta : in.origin;
   Starts s;
   const bool slip_force = kind == engine::ExtensionKind::kViscous || kind == engine::ExtensionKind::kDriveDamping;
