@@ -30,6 +30,24 @@ using namespace stickslip::diagnosis;
 
 namespace {
 
+/// The confusion table under `title`: rows the hidden cases, columns the named causes.
+void print_confusion(const std::string& title, const std::vector<std::string>& rows,
+                     const std::vector<std::string>& causes,
+                     std::map<std::string, std::map<std::string, int>>& table) {
+  std::printf("\n%s\n", title.c_str());
+  const char* abbrev[] = {"none", "visc", "strib", "dwell", "wavi", "drift", "load", "sensor", "damp"};
+  std::printf("| %-22s |", "case");
+  for (const char* a : abbrev) std::printf(" %6s |", a);
+  std::printf("\n|%s|", std::string(24, '-').c_str());
+  for (std::size_t i = 0; i < causes.size(); ++i) std::printf("%s|", std::string(8, '-').c_str());
+  std::printf("\n");
+  for (const auto& r : rows) {
+    std::printf("| %-22s |", r.c_str());
+    for (const auto& k : causes) std::printf(" %6d |", table[r][k]);
+    std::printf("\n");
+  }
+}
+
 /// The randomised suite: one line per case (drawn numbers, named cause, recovered size, base fit
 /// against the noise), the confusion table and the recovered parameters.
 int random_suite(int first, int seeds, RandomFamily family, const std::vector<std::string>& only,
@@ -75,19 +93,9 @@ int random_suite(int first, int seeds, RandomFamily family, const std::vector<st
       std::fflush(stdout);
     }
   }
-  std::printf("\nConfusion table (rows: hidden effect; columns: named cause; counts over seeds %d-%d)\n", first,
-              first + seeds - 1);
-  const char* abbrev[] = {"none", "visc", "strib", "dwell", "wavi", "drift", "load", "sensor", "damp"};
-  std::printf("| %-22s |", "case");
-  for (const char* a : abbrev) std::printf(" %6s |", a);
-  std::printf("\n|%s|", std::string(24, '-').c_str());
-  for (std::size_t i = 0; i < causes.size(); ++i) std::printf("%s|", std::string(8, '-').c_str());
-  std::printf("\n");
-  for (const auto& r : rows) {
-    std::printf("| %-22s |", r.c_str());
-    for (const auto& k : causes) std::printf(" %6d |", table[r][k]);
-    std::printf("\n");
-  }
+  print_confusion("Confusion table (rows: hidden effect; columns: named cause; counts over seeds " +
+                      std::to_string(first) + "-" + std::to_string(first + seeds - 1) + ")",
+                  rows, causes, table);
   std::printf("\n%d of %d diagnoses met every requirement; base held-out RMSE within 1.5 x noise on %d of %d "
               "nulls; %.0f s diagnosing in all\n", passed, total, base_ok, nulls, seconds);
   return passed == total ? 0 : 1;
@@ -125,24 +133,6 @@ void print_verbose(const diagnosis::Diagnosis& d) {
     if (cal.model == d.base_model)
       std::printf("  base fit %.4f held-out %.4f rho %.3f n %.0f n_eff %.0f\n", cal.rmse_fit,
                   cal.rmse_heldout, d.evidence.rho, d.evidence.n, d.evidence.n_eff);
-}
-
-/// The confusion table: rows the hidden cases, columns the named causes.
-void print_confusion(const std::vector<std::string>& rows, const std::vector<std::string>& causes,
-                     std::map<std::string, std::map<std::string, int>>& table, int seeds) {
-  std::printf("\nConfusion table (rows: hidden case; columns: named cause; counts over %d seeds)\n",
-              seeds);
-  const char* abbrev[] = {"none", "visc", "strib", "dwell", "wavi", "drift", "load", "sensor", "damp"};
-  std::printf("| %-22s |", "case");
-  for (const char* a : abbrev) std::printf(" %6s |", a);
-  std::printf("\n|%s|", std::string(24, '-').c_str());
-  for (std::size_t i = 0; i < causes.size(); ++i) std::printf("%s|", std::string(8, '-').c_str());
-  std::printf("\n");
-  for (const auto& r : rows) {
-    std::printf("| %-22s |", r.c_str());
-    for (const auto& k : causes) std::printf(" %6d |", table[r][k]);
-    std::printf("\n");
-  }
 }
 
 }  // namespace
@@ -211,7 +201,9 @@ int main(int argc, char** argv) {
       std::fflush(stdout);
     }
   }
-  print_confusion(rows, causes, table, seeds);
+  print_confusion("Confusion table (rows: hidden case; columns: named cause; counts over " +
+                      std::to_string(seeds) + " seeds)",
+                  rows, causes, table);
   std::printf("\n%d of %d diagnoses met every requirement; %.0f s diagnosing in all\n", passed,
               total, seconds);
   return passed == total ? 0 : 1;

@@ -92,13 +92,7 @@ namespace {
 JobWorkerOptions job_options(const DiagnosisWorkerOptions& o) {
   if (std::vector<std::string> errors; !o.IsValid(&errors))
     throw std::invalid_argument("DiagnosisWorkerOptions: " + common::join(errors, "; "));
-  JobWorkerOptions j;
-  j.kind = "diagnosis";
-  j.concurrency = 1;
-  j.poll = o.poll;
-  j.nice = o.nice;
-  j.cancel = CancelMode::kImmediate;
-  return j;
+  return one_at_a_time("diagnosis", o.poll, o.nice);
 }
 }  // namespace
 

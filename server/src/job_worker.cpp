@@ -40,6 +40,16 @@ CancelOutcome cancel_unclaimed(store::Store& store, const std::string& kind,
   return CancelOutcome::kCancelled;
 }
 
+JobWorkerOptions one_at_a_time(std::string kind, std::chrono::milliseconds poll, int nice) {
+  JobWorkerOptions j;
+  j.kind = std::move(kind);
+  j.concurrency = 1;
+  j.poll = poll;
+  j.nice = nice;
+  j.cancel = CancelMode::kImmediate;
+  return j;
+}
+
 bool JobWorkerOptions::IsValid(std::vector<std::string>* errors) const {
   bool ok = true;
   auto fail = [&](const std::string& m) {

@@ -93,13 +93,7 @@ RunJobFn validation_runner(int threads, std::shared_ptr<ProgressBoard> board) {
 JobWorkerOptions job_options(const ValidationWorkerOptions& o) {
   if (std::vector<std::string> errors; !o.IsValid(&errors))
     throw std::invalid_argument("ValidationWorkerOptions: " + common::join(errors, "; "));
-  JobWorkerOptions j;
-  j.kind = "validation";
-  j.concurrency = 1;
-  j.poll = o.poll;
-  j.nice = o.nice;
-  j.cancel = CancelMode::kImmediate;
-  return j;
+  return one_at_a_time("validation", o.poll, o.nice);
 }
 
 }  // namespace

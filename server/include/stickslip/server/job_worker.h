@@ -115,6 +115,10 @@ struct JobWorkerOptions {
   bool IsValid(std::vector<std::string>* errors = nullptr) const;
 };
 
+/// The options of a worker that runs one job of `kind` at a time and cancels it at once (the
+/// diagnosis and validation workers).
+JobWorkerOptions one_at_a_time(std::string kind, std::chrono::milliseconds poll, int nice);
+
 class JobWorker : public JobScheduler {
  public:
   /// health may be null (then faults are only logged).
