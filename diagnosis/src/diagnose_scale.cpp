@@ -12,6 +12,7 @@ namespace {
 double ref_force() { return engine::FrictionParams{}["F_C"]; }
 double ref_kd() { return engine::Drive{}.k_d; }
 double ref_vd() { return engine::Drive{}.v_d; }
+double ref_normal_load() { return engine::Drive{}.normal_load(); }
 
 const engine::ParamDef* find_def(engine::ModelKind m, const std::string& name) {
   for (const engine::ParamDef& p : engine::model_traits(m).params)
@@ -50,6 +51,30 @@ double RecordScales::mid(const engine::Dim& d) const {
   return factor(d, std::exp(lk / n), std::exp(lv / n));
 }
 
+double RecordScales::coefficient(std::size_t run) const {
+  return run < normal_load.size() && normal_load[run] > 0 ? force * ref_normal_load() / normal_load[run]
+                                                          : force;
+}
+
+double RecordScales::coefficient_lo() const {
+  double f = coefficient(0);
+  for (std::size_t i = 1; i < normal_load.size(); ++i) f = std::min(f, coefficient(i));
+  return f;
+}
+
+double RecordScales::coefficient_hi() const {
+  double f = coefficient(0);
+  for (std::size_t i = 1; i < normal_load.size(); ++i) f = std::max(f, coefficient(i));
+  return f;
+}
+
+double RecordScales::coefficient_mid() const {
+  if (normal_load.empty()) return coefficient(0);
+  double l = 0;
+  for (std::size_t i = 0; i < normal_load.size(); ++i) l += std::log(coefficient(i));
+  return std::exp(l / static_cast<double>(normal_load.size()));
+}
+
 RecordScales record_scales(const Problem& p) {
   RecordScales s;
   double lf = 0;
@@ -57,6 +82,7 @@ RecordScales record_scales(const Problem& p) {
   for (const RunData& r : p.runs) {
     s.kd.push_back(r.cond.kd);
     s.vd.push_back(r.cond.vd);
+    s.normal_load.push_back(r.cond.Fz + r.cond.m * engine::Drive::kGravity);
     for (const WindowStats& w : r.rec.windows)
       if (w.stage == 0 && !w.held && std::isfinite(w.stats.mean) && std::fabs(w.stats.mean) > 0) {
         lf += std::log(std::fabs(w.stats.mean));
@@ -83,6 +109,13 @@ std::vector<ParamSpec> scaled_base_specs(engine::ModelKind m, const RecordScales
   const double F = s.force;
   std::vector<ParamSpec> specs = base_specs(m, levels.F_C0 / F, levels.F_S0 / F);
   for (ParamSpec& p : specs) {
+    const engine::ParamDef* def = find_def(m, p.name);
+    if (def != nullptr && def->fit.per_normal_load) {
+      p.lo *= s.coefficient_lo();
+      p.hi *= s.coefficient_hi();
+      p.init = std::clamp(p.init * s.coefficient_mid(), p.lo, p.hi);
+      continue;
+    }
     const engine::Dim d = spec_dimension(m, p.name);
     if (d == engine::kDimensionless) continue;
     // A start from the levels is already a force; only the range moves for it.

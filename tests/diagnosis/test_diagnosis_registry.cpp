@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include "stickslip/diagnosis/detail/diagnose_fit.h"
+#include "stickslip/diagnosis/detail/diagnose_scale.h"
 #include "stickslip/diagnosis/diagnose.h"
 #include "stickslip/diagnosis/diagnosis_request.h"
 #include "stickslip/engine/registry.h"
@@ -69,6 +70,49 @@ TEST(DiagnosisRegistry, ForceLevelStartsFollowTheMeasuredLevels) {
         EXPECT_LT(low[k].init, high[k].init) << t.info->name;
       }
   }
+}
+
+const detail::ParamSpec& spec_named(const std::vector<detail::ParamSpec>& specs,
+                                    const std::string& name) {
+  for (const detail::ParamSpec& s : specs)
+    if (s.name == name) return s;
+  throw std::runtime_error("no spec " + name);
+}
+
+// A coefficient of the normal load (rate-and-state's mu0, a, b) is scaled by the record's force
+// level over its own F_N = Fz + m g: a 0.1 N record of a 30.7 g slider loaded by its weight
+// alone starts at mu0 = 0.1 / 0.301, and the same record with Table 1's external load (29.4 N)
+// at 0.1 / 29.7, inside the range in both cases (Table 1's range, 0.01-3, holds neither the
+// second start nor, scaled by force alone, the first). Runs at two loads widen the range.
+TEST(DiagnosisRegistry, NormalLoadCoefficientsFollowTheRecordsLevelOverItsNormalLoad) {
+  const engine::ModelKind rs = engine::model_from_string("rate_state");
+  const double level = 0.1, m = 0.0307;
+  detail::RecordScales s;
+  s.force = level / engine::FrictionParams{}["F_C"];
+  s.kd = {1002.0};
+  s.vd = {4.3e-3};
+  for (const double Fz : {0.0, 29.4}) {
+    const double FN = Fz + m * engine::Drive::kGravity;
+    s.normal_load = {FN};
+    const auto specs = detail::scaled_base_specs(rs, s, {level, 1.2 * level});
+    for (const char* name : {"mu0", "a_rs", "b_rs"}) {
+      const detail::ParamSpec& p = spec_named(specs, name);
+      EXPECT_GE(p.init, p.lo) << name << " at F_N " << FN;
+      EXPECT_LE(p.init, p.hi) << name << " at F_N " << FN;
+    }
+    const detail::ParamSpec& mu0 = spec_named(specs, "mu0");
+    EXPECT_NEAR(mu0.init, level / FN, 1e-9 * level / FN) << "F_N " << FN;
+    EXPECT_LT(mu0.lo, level / FN / 3.0);
+    EXPECT_GT(mu0.hi, level / FN * 3.0);
+    // a and b keep their ratio to mu0's scale: a_rs's default a/mu0 = 0.01/0.231.
+    EXPECT_NEAR(spec_named(specs, "a_rs").init / mu0.init, 0.01 / 0.231, 0.001) << FN;
+  }
+  s.normal_load = {0.301, 30.0};
+  s.kd = {1002.0, 1002.0};
+  s.vd = {4.3e-3, 4.3e-3};
+  const detail::ParamSpec& both = spec_named(detail::scaled_base_specs(rs, s, {level, 1.2 * level}), "mu0");
+  EXPECT_LT(both.lo, level / 30.0);
+  EXPECT_GT(both.hi, level / 0.301);
 }
 
 }  // namespace

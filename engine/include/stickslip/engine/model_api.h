@@ -67,9 +67,6 @@ inline constexpr Interval kAnyFinite{};
 /// breakaway level (mean + half the peak-to-peak amplitude).
 struct FitLevels {
   double slip = 0.0, stick = 0.0;
-  /// The record's normal load F_N [N] (Drive::normal_load()), for parameters written per unit
-  /// normal load (a friction coefficient starts from slip / F_N); 0 when unknown.
-  double normal_load = 0.0;
 };
 using FitStart = double (*)(const FitLevels&);
 enum class FitScale { kLinear, kLog };
@@ -78,11 +75,15 @@ enum class FitScale { kLinear, kLog };
 /// fit the ratio name/relative_to in [lo, hi] instead of the value (the fit parameter is named
 /// "F_C/F_S"), which keeps the constraint name <= relative_to. start: the starting value from
 /// the measured levels (the ratio's, when relative); nullptr starts from the default.
+/// per_normal_load: a dimensionless coefficient of the normal load (rate-and-state's mu0, a, b:
+/// F_f = F_N mu). Its range and start are written for Table 1 (levels of ~10 N at F_N = 35.9 N);
+/// the diagnosis moves them by the record's force level over its F_N (diagnose_scale.h).
 struct FitRange {
   double lo = 0.0, hi = 0.0;
   FitScale scale = FitScale::kLinear;
   FitStart start = nullptr;
   const char* relative_to = nullptr;
+  bool per_normal_load = false;
   constexpr bool fitted() const noexcept { return hi > lo; }
 };
 

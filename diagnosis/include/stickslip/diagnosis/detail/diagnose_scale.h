@@ -7,7 +7,11 @@
 //   force  F* = the record's sliding level (mean of every run's first fitted window) against
 //               Table 1's F_C;
 //   length F*/k_d against F_C/k_d of Table 1;
-//   time   (F*/k_d)/v_d, the time the drive takes to load the spring by F*.
+//   time   (F*/k_d)/v_d, the time the drive takes to load the spring by F*;
+//   a coefficient of the normal load (FitRange::per_normal_load, rate-and-state's mu0, a, b)
+//          F*/F_N, F_N = Fz + m g from each run's conditions, against F_C/F_N of Table 1
+//          (8.3 N / 35.9 N). So a 0.1 N record at F_N = 0.30 N starts at mu0 = 0.33, and the
+//          same record with Table 1's external load (a manifest without "Fz") at 0.0034.
 // With runs at several k_d and v_d, a range spans them all (the lower end scaled by the smallest
 // factor over the runs, the upper by the largest) and a start is scaled at their geometric means.
 //
@@ -28,12 +32,18 @@ namespace stickslip::diagnosis::detail {
 struct RecordScales {
   double force = 1;                         ///< F* / F_C(Table 1) [-]
   std::vector<double> kd, vd;               ///< per run [N/m], [m/s]
+  std::vector<double> normal_load;          ///< per run F_N = Fz + m g [N]
   /// The factor of dimension d for drive (kd, vd), and its smallest / largest / central value
   /// over the runs.
   double factor(const engine::Dim& d, double kd, double vd) const;
   double lo(const engine::Dim& d) const;
   double hi(const engine::Dim& d) const;
   double mid(const engine::Dim& d) const;
+  /// The same for a coefficient of the normal load: (F*/F_N) / (F_C/F_N of Table 1).
+  double coefficient(std::size_t run) const;
+  double coefficient_lo() const;
+  double coefficient_hi() const;
+  double coefficient_mid() const;
 };
 
 RecordScales record_scales(const Problem& p);

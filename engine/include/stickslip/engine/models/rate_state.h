@@ -74,14 +74,15 @@ struct RateState {
   static constexpr ParamDef kParams[] = {
       {"mu0", kDimensionless, 0.231, kPositive,
        "rate-and-state steady friction coefficient at V0",
+       // Written at Table 1's scale (slip level over Table 1's F_N); the diagnosis moves the
+       // range and start to the record's level over its F_N (FitRange::per_normal_load).
        {0.01, 3.0, FitScale::kLog,
-        [](const FitLevels& l) {
-          return l.normal_load > 0 ? std::clamp(l.slip / l.normal_load, 0.011, 2.9) : 0.231;
-        }}},
+        [](const FitLevels& l) { return std::clamp(l.slip / Drive{}.normal_load(), 0.011, 2.9); },
+        nullptr, true}},
       {"a_rs", kDimensionless, 0.01, kPositive, "rate-and-state direct-effect coefficient a",
-       {1e-4, 0.1, FitScale::kLog}},
+       {1e-4, 0.1, FitScale::kLog, nullptr, nullptr, true}},
       {"b_rs", kDimensionless, 0.02, kNonNegative, "rate-and-state evolution-effect coefficient b",
-       {1e-4, 0.2, FitScale::kLog}},
+       {1e-4, 0.2, FitScale::kLog, nullptr, nullptr, true}},
       {"D_c", kLength, 1e-6, kPositive, "rate-and-state characteristic slip distance",
        {1e-8, 1e-3, FitScale::kLog}},
       {"V0", kVelocity, 1e-3, kPositive, "rate-and-state reference velocity"},
