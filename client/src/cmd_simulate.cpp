@@ -1,4 +1,5 @@
 // `stickslip simulate`: one run, JSON summary on stdout, optional CSV trace.
+#include <algorithm>
 #include <cmath>
 #include <iostream>
 #include <map>
@@ -46,10 +47,30 @@ constexpr Flag kFlags[] = {
     {"--cycle-threshold", "cycle_threshold", "smallest F_d drop counted as a slip [N] (0.2)"},
 };
 
+// A friction parameter or option given for a model that does not have it (--model lugre --a_rs
+// 0.02) is an error naming the flag, its value and the models that have it, not a silent no-op.
+// Empty when the model has it (or the name is not a friction parameter: t_on, k_d ...).
+std::string not_of_model(engine::ModelKind m, const std::string& name) {
+  const std::vector<engine::ModelKind> users = engine::models_using(name);
+  if (users.empty() || std::find(users.begin(), users.end(), m) != users.end()) return {};
+  std::string which;
+  for (const engine::ModelKind u : users)
+    which += (which.empty() ? "" : ", ") + std::string(engine::model_traits(u).info->name);
+  return std::string("is not a parameter of model ") + engine::model_traits(m).info->name +
+         " (models with it: " + which + ")";
+}
+
 int run_simulate(SimulateArgs& a) {
   engine::SimConfig cfg;
   try {
-    cfg = engine::SimConfig::seed(engine::model_from_string(a.model), 0.0);
+    const engine::ModelKind model = engine::model_from_string(a.model);
+    for (auto& [name, v] : a.values)
+      if (const std::string why = not_of_model(model, name); v && !why.empty())
+        throw engine::InvalidParameter(name, *v, why);
+    for (auto& [name, choice] : a.options)
+      if (const std::string why = not_of_model(model, name); choice && !why.empty())
+        throw engine::InvalidParameter(name, *choice, why);
+    cfg = engine::SimConfig::seed(model, 0.0);
     cfg.integrator.kind = engine::integrator_from_string(a.integrator);
     // Order matters for derived settings: t_on before duration, then everything else.
     for (const char* first : {"t_on", "duration"})

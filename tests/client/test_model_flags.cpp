@@ -3,6 +3,7 @@
 // help, and each flag sets its parameter; the flag spellings of the seed's parameters stay.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <set>
 #include <string>
 
@@ -94,6 +95,26 @@ TEST_F(SimulateCli, EveryParameterFlagSetsItsParameter) {
   }
   const auto ok = box_.run("simulate --model karnopp --F_slip 8 --FS 9 --duration 0.5 --t-on 0.25");
   EXPECT_EQ(ok.code, 0) << ok.err;
+}
+
+// A parameter or option of another model is refused (exit 2), naming the flag's parameter, the
+// model and a model that has it; it is not silently ignored.
+TEST_F(SimulateCli, AParameterOfAnotherModelIsRefusedNamingIt) {
+  for (const ModelFlag& f : model_flags()) {
+    const std::string flag = f.names.substr(0, f.names.find(','));
+    const std::string value = f.choices.empty() ? "0.02" : f.choices.front();
+    for (const engine::ModelTraits& t : engine::all_model_traits()) {
+      const auto users = engine::models_using(f.target);
+      if (std::find(users.begin(), users.end(), t.kind) != users.end()) continue;
+      const auto r = box_.run("simulate --model " + std::string(t.info->name) + " " + flag + " " +
+                              value + " --t-on 0.005 --duration 0.01");
+      EXPECT_EQ(r.code, 2) << t.info->name << " " << flag << ": " << r.err;
+      EXPECT_TRUE(contains(r.err, f.target)) << r.err;
+      EXPECT_TRUE(contains(r.err, std::string("not a parameter of model ") + t.info->name)) << r.err;
+      EXPECT_TRUE(contains(r.err, engine::model_traits(users.front()).info->name)) << r.err;
+      break;  // one model without it per flag keeps the test short
+    }
+  }
 }
 
 }  // namespace
