@@ -141,7 +141,8 @@ nlohmann::json reading_to_json(const RunReading& r) {
           {"preload", common::json_number(r.preload)},
           {"from_rest", r.from_rest},
           {"stuck_at_start", r.stuck_at_start},
-          {"burn_in", common::json_number(r.burn_in)}};
+          {"burn_in", common::json_number(r.burn_in)},
+          {"defaulted", r.defaulted}};
 }
 
 nlohmann::json calibrated_json(const CalibratedModel& m) {

@@ -49,6 +49,9 @@ void summary_readings(const Diagnosis& d, std::ostringstream& s) {
                   r.from_rest ? "from rest" : "mid-experiment", r.stuck_at_start ? "stuck" : "sliding",
                   r.burn_in, r.why.c_str());
     s << line;
+    if (!r.defaulted.empty())
+      s << "  " << std::string(16, ' ') << " not in the manifest, the seed's values taken: "
+        << r.defaulted_text << "\n";
   }
 }
 

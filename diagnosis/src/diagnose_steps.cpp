@@ -175,6 +175,8 @@ std::vector<RunReading> run_readings(const Problem& P) {
     g.from_rest = r.rec.from_rest;
     g.stuck_at_start = r.rec.stuck_at_start;
     g.burn_in = P.stats ? r.settle : 0.0;
+    g.defaulted = r.cond.defaulted;
+    g.defaulted_text = measured::defaulted_text(r.cond);
     out.push_back(g);
   }
   return out;

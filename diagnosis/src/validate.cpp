@@ -73,6 +73,8 @@ RunReading reading_of(const RunData& r) {
   g.from_rest = r.rec.from_rest;
   g.stuck_at_start = r.rec.stuck_at_start;
   g.burn_in = r.settle;
+  g.defaulted = r.cond.defaulted;
+  g.defaulted_text = measured::defaulted_text(r.cond);
   return g;
 }
 

@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <charconv>
+#include <cstdio>
 #include <cmath>
 #include <fstream>
 #include <functional>
@@ -161,6 +162,18 @@ using CsvReader = std::function<void(std::size_t index, const std::string& run_p
 /// The manifest's runs, their conditions and their CSVs; schema errors are reported with
 /// pointers prefixed by prefix ("" for a manifest file, "/manifest" inside a server request).
 /// Throws MeasuredError listing every problem.
+/// The manifest's condition keys, their fields and units (defaulted_text).
+struct ConditionField {
+  const char* key;
+  double MeasuredConditions::*field;
+  const char* unit;
+};
+constexpr ConditionField kConditionFields[] = {
+    {"m", &MeasuredConditions::m, "kg"},         {"kd", &MeasuredConditions::kd, "N/m"},
+    {"vd", &MeasuredConditions::vd, "m/s"},      {"Fz", &MeasuredConditions::Fz, "N"},
+    {"f", &MeasuredConditions::f, "Hz"},         {"va", &MeasuredConditions::va, "m/s"},
+    {"t_on", &MeasuredConditions::t_on, "s"},    {"duration", &MeasuredConditions::duration, "s"}};
+
 MeasuredDataset build_dataset(const json& doc, const std::string& prefix, const CsvReader& csv) {
   std::vector<common::SpecError> errors = common::validate_against_schema(doc, measured_schema());
   if (!errors.empty()) {
@@ -180,14 +193,12 @@ MeasuredDataset build_dataset(const json& doc, const std::string& prefix, const 
       if (ds.runs[j].name == run.name)
         errors.push_back({ptr + "/name", "duplicate run name '" + run.name + "' (also " + prefix +
                                              "/runs/" + std::to_string(j) + ")"});
-    if (const auto it = r.find("conditions"); it != r.end()) {
-      MeasuredConditions& c = run.conditions;
-      for (auto [key, field] : {std::pair{"m", &c.m}, std::pair{"kd", &c.kd},
-                                std::pair{"vd", &c.vd}, std::pair{"Fz", &c.Fz},
-                                std::pair{"f", &c.f},
-                                std::pair{"va", &c.va}, std::pair{"t_on", &c.t_on},
-                                std::pair{"duration", &c.duration}})
-        if (it->contains(key)) *field = it->at(key).get<double>();
+    const auto it = r.find("conditions");
+    for (const ConditionField& f : kConditionFields) {
+      if (it != r.end() && it->contains(f.key))
+        run.conditions.*f.field = it->at(f.key).get<double>();
+      else
+        run.conditions.defaulted.push_back(f.key);
     }
     if (run.conditions.t_on > run.conditions.duration)
       errors.push_back({ptr + "/conditions/t_on",
@@ -289,6 +300,18 @@ MeasuredDataset load_measured(const json& manifest, const std::map<std::string, 
   }
   if (!errors.empty()) throw MeasuredError(std::move(errors));
   return ds;
+}
+
+std::string defaulted_text(const MeasuredConditions& c) {
+  std::string out;
+  for (const std::string& key : c.defaulted)
+    for (const ConditionField& f : kConditionFields)
+      if (key == f.key) {
+        char buf[96];
+        std::snprintf(buf, sizeof buf, "%s%s = %g %s", out.empty() ? "" : ", ", f.key, c.*f.field, f.unit);
+        out += buf;
+      }
+  return out;
 }
 
 void apply_conditions(const MeasuredConditions& c, engine::SimConfig& cfg) {

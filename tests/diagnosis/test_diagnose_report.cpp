@@ -174,9 +174,20 @@ void check_json_and_plots(const Diagnosis& d) {
 TEST(DiagnoseReport, DriftDiagnosisReportsWholeRunsEvidenceSchemaAndPlots) {
   measured::MeasuredDataset data = measured::synthesize(hidden_case_dataset(drift_case(), 1000, SuiteDatasets::kCi));
   data.runs[0].name = "stand's run 1";
+  data.runs[1].conditions.defaulted = {"Fz"};  // as if its manifest left Fz out
   DiagnoseOptions o = hidden_case_options(SuiteDatasets::kCi);
   o.candidates = {engine::ExtensionKind::kDrift};
   const Diagnosis d = diagnose(data, o);
+  {
+    SCOPED_TRACE("conditions taken from the seed are reported per run");
+    ASSERT_EQ(d.readings.size(), 2u);
+    EXPECT_TRUE(d.readings[0].defaulted.empty());
+    EXPECT_EQ(d.readings[1].defaulted, std::vector<std::string>{"Fz"});
+    EXPECT_EQ(to_json(d)["readings"][1]["defaulted"], nlohmann::json::array({"Fz"}));
+    const std::string text = summary_text(d);
+    EXPECT_NE(text.find("not in the manifest, the seed's values taken: Fz = 29.4 N"), std::string::npos)
+        << text;
+  }
   {
     SCOPED_TRACE("whole runs held out");
     check_whole_runs(d);

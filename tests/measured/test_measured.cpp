@@ -4,6 +4,8 @@
 #include "stickslip/measured/measured.h"
 
 #include <gtest/gtest.h>
+
+#include <algorithm>
 #include <unistd.h>
 
 #include <cmath>
@@ -69,6 +71,11 @@ TEST_F(Measured, GoodDatasetLoadsWithDefaultsAndUnevenSampling) {
   EXPECT_DOUBLE_EQ(r.conditions.m, 0.665);     // seed default
   EXPECT_DOUBLE_EQ(r.conditions.Fz, 29.4);     // seed default
   EXPECT_DOUBLE_EQ(r.conditions.duration, 20.0);
+  // The loader says which it took from the seed, with their values and units.
+  EXPECT_EQ(r.conditions.defaulted,
+            (std::vector<std::string>{"m", "kd", "vd", "Fz", "f", "duration"}));
+  EXPECT_EQ(defaulted_text(r.conditions),
+            "m = 0.665 kg, kd = 11700 N/m, vd = 0.001 m/s, Fz = 29.4 N, f = 1500 Hz, duration = 20 s");
 }
 
 // The external normal load is an optional condition (>= 0; 0 for a slider loaded by its weight
@@ -79,6 +86,7 @@ TEST_F(Measured, NormalLoadConditionIsOptionalAndApplied) {
   manifest(R"([{"name": "r", "file": "a.csv", "conditions": {"Fz": 0, "m": 0.0307}}])");
   const MeasuredDataset ds = load_measured(dir_ / "m.json");
   EXPECT_DOUBLE_EQ(ds.runs[0].conditions.Fz, 0.0);
+  EXPECT_EQ(std::count(ds.runs[0].conditions.defaulted.begin(), ds.runs[0].conditions.defaulted.end(), "Fz"), 0);
   engine::SimConfig cfg;
   apply_conditions(ds.runs[0].conditions, cfg);
   EXPECT_DOUBLE_EQ(cfg.drive.F_z, 0.0);

@@ -227,6 +227,10 @@ struct RunReading {
   bool from_rest = true;     ///< starts with the spring unloaded
   bool stuck_at_start = true;
   double burn_in = 0;        ///< simulated before the record's t = 0 (statistics scoring) [s]
+  /// Conditions the manifest left out, the seed's values taken (MeasuredConditions::defaulted),
+  /// and the same with values and units ("Fz = 29.4 N, f = 1500 Hz").
+  std::vector<std::string> defaulted;
+  std::string defaulted_text;
 };
 
 /// Measured and predicted statistics of one stage window of one run.

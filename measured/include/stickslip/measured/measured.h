@@ -37,7 +37,13 @@ struct MeasuredConditions {
   double va = 0.0;       ///< [m/s]
   double t_on = 10.0;    ///< [s] vibration starts
   double duration = 20.0;  ///< [s] whole run
+  /// The manifest keys of the conditions it left out, whose seed values above were taken
+  /// ("Fz", "f" ...); empty for a synthesised run or when every condition is given.
+  std::vector<std::string> defaulted;
 };
+
+/// "Fz = 29.4 N, f = 1500 Hz": the defaulted conditions with their values and units.
+std::string defaulted_text(const MeasuredConditions& c);
 
 struct MeasuredRun {
   std::string name;
