@@ -12,12 +12,28 @@
 #include <vector>
 
 #include "extended.h"
+#include "stickslip/engine/exp.h"
 #include "stickslip/engine/metrics.h"
 #include "stickslip/engine/params.h"
 #include "stickslip/engine/simulate.h"
 #include "trace.h"
 
 namespace stickslip::engine::detail {
+
+/// cos(x) and sin(x) for |x| <= 1 by their Taylor series (Horner in x^2): the small offsets of
+/// the base's phase inside a step, added to one glibc sin/cos pair of the large phase (angle
+/// addition) by the adaptive and the Rosenbrock integrators.
+inline void small_sincos(double x, double* c_out, double* s_out) noexcept {
+  // |x| <= 1: the first omitted terms are x^20/20! < 4.2e-19 and x^19/19! < 8.3e-18.
+  const double x2 = x * x;
+  double c = kInvFactorial[18], sn = kInvFactorial[19];
+  for (int k = 16; k >= 0; k -= 2) {  // Horner in x^2, alternating signs
+    c = kInvFactorial[k] - x2 * c;
+    sn = kInvFactorial[k + 1] - x2 * sn;
+  }
+  *c_out = c;
+  *s_out = sn * x;
+}
 
 /// Body, drive and the current stage's base motion. u'(t) = v_a cos(w (t - t0)).
 struct Plant {
