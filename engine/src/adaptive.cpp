@@ -17,6 +17,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdint>
 #include <tuple>
 #include <type_traits>
 
@@ -146,6 +147,9 @@ template <int Z>
 struct ErrorScaleT<StateStorage<Z, true>> {
   double k_d, z_v, k_t, inv_tol;
   std::array<double, Z - 1> k_zs{};
+  /// How many of the further internal states move (the model's active_states() - 1, e.g. GMS
+  /// with 4 of its 12 element slots): the others stay 0 and are skipped, exactly.
+  std::size_t nzs = Z - 1;
 };
 
 #include "adaptive_support.inc"  // (inside this anonymous namespace)
@@ -177,7 +181,7 @@ StepOut dp5_step(const Sys& sys, const Plant& p, double t, const State& y, const
       yi.v += h * a * k[j].v;
       ss += a * (ef[i] / ef[j]) * k[j].s;
       if constexpr (kMore)
-        for (std::size_t q = 0; q < yi.zs.size(); ++q) yi.zs[q] += h * a * k[j].zs[q];
+        for (std::size_t q = 0; q < es.nzs; ++q) yi.zs[q] += h * a * k[j].zs[q];
     }
     const double ui = ef[i] * u0 + h * ss;
     yi.s = s_eq + ui;
@@ -204,7 +208,7 @@ StepOut dp5_step(const Sys& sys, const Plant& p, double t, const State& y, const
   if constexpr (kMore) {
     double e = std::max({es.k_d * std::fabs(h * ex), es.z_v * std::fabs(h * ev),
                          es.k_t * std::fabs(h * esum)});
-    for (std::size_t q = 0; q < y.zs.size(); ++q) {
+    for (std::size_t q = 0; q < es.nzs; ++q) {
       double ez = 0.0;
       for (int j = 0; j < kStages; ++j) {
         y_new.zs[q] += h * kB[j] * k[j].zs[q];
@@ -237,6 +241,15 @@ constexpr double kAlpha = 0.2 - 0.75 * kBeta;
 // Fractional part of the golden ratio: spreads where the reversal falls in the cut step.
 constexpr double kGoldenFrac = 0.6180339887498949;
 constexpr double kLogErrFloor = -9.210340371976184;  // log(1e-4): floor of the PI memory
+
+/// The step's continuous extension over the internal states that move.
+template <class State>
+DenseStep<State> make_dense(const State& y0, const State& y1,
+                            const std::array<State, kStages>& k, double h,
+                            const ErrorScaleT<State>& es) {
+  if constexpr (requires { es.nzs; }) return DenseStep<State>(y0, y1, k, h, es.nzs);
+  else return DenseStep<State>(y0, y1, k, h);
+}
 
 /// y: the state at t = 0 (the model's initial_state).
 template <class Sys>
@@ -379,7 +392,7 @@ void adaptive(RunContext& ctx, const Sys& sys, const ErrorScaleT<typename Sys::S
           // extension's error (~ the local error) can put that point a hair before the event
           // of the real step fires; a secant from there moves it past, and if that fails too
           // the switch is located on real steps as before.
-          const DenseStep<State> dense(y, out.y, kst, hh);
+          const DenseStep<State> dense = make_dense(y, out.y, kst, hh, es);
           const BaseInStep bis(p, t, hh);
           auto yd_event = [&](double th) {
             const State o = dense.at(th / hh);
@@ -482,6 +495,8 @@ ErrorScaleT<StateOf<M>> error_scale(const SimConfig& c, const M& model) {
   if constexpr (M::kStates > 0) es.k_t = w.z[0];
   if constexpr (M::kStates > 1)
     for (int q = 0; q < M::kStates - 1; ++q) es.k_zs[q] = w.z[q + 1];
+  if constexpr (M::kStates > 1 && requires { model.active_states(); })
+    es.nzs = static_cast<std::size_t>(std::clamp(model.active_states(), 1, M::kStates) - 1);
   return es;
 }
 
