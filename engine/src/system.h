@@ -397,10 +397,11 @@ void drive_stages(RunContext& ctx, S& y, double* h, IntegrateStage&& integrate_s
 /// 1e-4 s late (the ~1e-2 N RMS "adaptive vs rk4_event bias"; test
 /// EventLocation.AdaptiveKarnoppBreakawayOnTime).
 template <class Out, class Eval>
-double locate_switch(double f0, double h, double f_h, Out& out_h, Eval&& eval) {
+double locate_switch(double f0, double h, double f_h, Out& out_h, Eval&& eval,
+                     double rel_tol = 1e-10) {
   double a = 0.0, fa = std::fmax(f0, 0.0), b = h, fb = f_h;
   int side = 0;
-  const double tol = std::fmax(1e-15, 1e-10 * h);
+  const double tol = std::fmax(1e-15, rel_tol * h);
   double width_check = b - a;
   for (int it = 0; it < 200 && b - a > tol; ++it) {
     bool bisect = false;
