@@ -17,6 +17,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdint>
 #include <tuple>
 #include <type_traits>
 
@@ -56,7 +57,8 @@ struct SmoothSys {
     return rhs(model, p, t, y, p.base_velocity(t));
   }
   /// The same with the base velocity ub [m/s] at t given (see BaseAtStages).
-  Deriv eval_ub(const Plant& p, double t, const State& y, double ub) const noexcept {
+  Deriv eval_ub(const Plant& p, double t, const State& y, double ub, double /*ab*/,
+                Mode) const noexcept {
     return rhs(model, p, t, y, ub);
   }
   /// The integrating-factor rate of s: lambda(v_r) or lambda(v_r, s); 0 (no factor) when the
@@ -95,7 +97,17 @@ struct HybridSys {
   }
   static constexpr bool kMore = requires(State s) { s.zs; };  // internal states beyond s
   Deriv eval(const Plant& p, double t, const State& y, Mode mode) const noexcept {
-    const Point pt = point(p, t, y);
+    return eval_at(p, point(p, t, y), y, mode);
+  }
+  /// The same with the base velocity ub [m/s] and acceleration ab [m/s^2] at t given
+  /// (BaseAtStages; a catalogue extension's point is built by the plant).
+  Deriv eval_ub(const Plant& p, double t, const State& y, double ub, double ab,
+                Mode mode) const noexcept {
+    if (p.ext) [[unlikely]]
+      return eval(p, t, y, mode);
+    return eval_at(p, Point{p.drive_force(t, y.x), y.v - ub, ab}, y, mode);
+  }
+  Deriv eval_at(const Plant& p, const Point& pt, const State& y, Mode mode) const noexcept {
     if constexpr (kMore) {
       return frozen_deriv(p, pt, y, hyb.eval(mode, pt, internal_states(y)));
     } else {
@@ -104,7 +116,17 @@ struct HybridSys {
     }
   }
   static constexpr bool kEvents = true;
-  static constexpr bool kReversals = false;  // switches are located instead
+  /// The reversal step limiter and the stage base motion by angle addition of adaptive() where
+  /// the hybrid form asks for them (H::kReversals: GMS, whose element damping's Stribeck factor
+  /// has a bump ~v_s wide at every reversal of v_r); Karnopp and the Reset Integrator locate
+  /// their switches only.
+  static constexpr bool kReversals = [] {
+    if constexpr (requires { H::kReversals; }) return H::kReversals;
+    else return false;
+  }();
+  static constexpr bool kOwnSeq = false;
+  double lambda_ub(const State&, double) const noexcept { return 0.0; }  // no factor
+  double own_s_eq(double, double) const noexcept { return 0.0; }
   double event(const Plant& p, double t, const State& y, Mode mode, Mode* next) const noexcept {
     if constexpr (kMore) return hyb.event(mode, point(p, t, y), internal_states(y), next);
     else return hyb.event(mode, point(p, t, y), y.s, next);
@@ -146,6 +168,9 @@ template <int Z>
 struct ErrorScaleT<StateStorage<Z, true>> {
   double k_d, z_v, k_t, inv_tol;
   std::array<double, Z - 1> k_zs{};
+  /// How many of the further internal states move (the model's active_states() - 1, e.g. GMS
+  /// with 4 of its 12 element slots): the others stay 0 and are skipped, exactly.
+  std::size_t nzs = Z - 1;
 };
 
 #include "adaptive_support.inc"  // (inside this anonymous namespace)
@@ -177,12 +202,12 @@ StepOut dp5_step(const Sys& sys, const Plant& p, double t, const State& y, const
       yi.v += h * a * k[j].v;
       ss += a * (ef[i] / ef[j]) * k[j].s;
       if constexpr (kMore)
-        for (std::size_t q = 0; q < yi.zs.size(); ++q) yi.zs[q] += h * a * k[j].zs[q];
+        for (std::size_t q = 0; q < es.nzs; ++q) yi.zs[q] += h * a * k[j].zs[q];
     }
     const double ui = ef[i] * u0 + h * ss;
     yi.s = s_eq + ui;
-    if constexpr (Sys::kReversals)
-      kd[i] = sys.eval_ub(p, t + kC[i] * h, yi, base->ub[i]);
+    if (Sys::kReversals && base)
+      kd[i] = sys.eval_ub(p, t + kC[i] * h, yi, base->ub[i], base->ab[i], mode);
     else
       kd[i] = sys.eval(p, t + kC[i] * h, yi, mode);
     k[i] = {kd[i].d.x, kd[i].d.v, kd[i].d.s + L * ui};
@@ -204,7 +229,7 @@ StepOut dp5_step(const Sys& sys, const Plant& p, double t, const State& y, const
   if constexpr (kMore) {
     double e = std::max({es.k_d * std::fabs(h * ex), es.z_v * std::fabs(h * ev),
                          es.k_t * std::fabs(h * esum)});
-    for (std::size_t q = 0; q < y.zs.size(); ++q) {
+    for (std::size_t q = 0; q < es.nzs; ++q) {
       double ez = 0.0;
       for (int j = 0; j < kStages; ++j) {
         y_new.zs[q] += h * kB[j] * k[j].zs[q];
@@ -237,6 +262,29 @@ constexpr double kAlpha = 0.2 - 0.75 * kBeta;
 // Fractional part of the golden ratio: spreads where the reversal falls in the cut step.
 constexpr double kGoldenFrac = 0.6180339887498949;
 constexpr double kLogErrFloor = -9.210340371976184;  // log(1e-4): floor of the PI memory
+
+/// A hybrid system's event at the end t_e of a full step: from the base motion at its last stage
+/// where adaptive() keeps it (Sys::kReversals; no glibc sin/cos), else from the plant.
+template <class Sys, class State>
+double event_at_end(const Sys& sys, const Plant& p, const BaseAtStages& base, double t_e,
+                    const State& y, typename Sys::Mode mode, typename Sys::Mode* next) {
+  if constexpr (Sys::kReversals) {
+    if (!p.ext)
+      return sys.event_at(Point{p.drive_force(t_e, y.x), y.v - base.ub[kStages - 1],
+                                base.ab[kStages - 1]},
+                          y, mode, next);
+  }
+  return sys.event(p, t_e, y, mode, next);
+}
+
+/// The step's continuous extension over the internal states that move.
+template <class State>
+DenseStep<State> make_dense(const State& y0, const State& y1,
+                            const std::array<State, kStages>& k, double h,
+                            const ErrorScaleT<State>& es) {
+  if constexpr (requires { es.nzs; }) return DenseStep<State>(y0, y1, k, h, es.nzs);
+  else return DenseStep<State>(y0, y1, k, h);
+}
 
 /// y: the state at t = 0 (the model's initial_state).
 template <class Sys>
@@ -369,32 +417,50 @@ void adaptive(RunContext& ctx, const Sys& sys, const ErrorScaleT<typename Sys::S
           zero_switches = 0;
           mode = sys.start_mode(p, t_new, out.y);
           out.k_end = sys.eval(p, t_new, out.y, mode);
-        } else if (sys.event(p, t_new, out.y, mode, &next) < 0.0) {
+        } else if (const double fh = event_at_end(sys, p, base, t_new, out.y, mode, &next);
+                   fh < 0.0) {
           typename Sys::Mode dummy{};
           const double f0 = sys.event(p, t, y, mode, &dummy);
-          const double fh = sys.event(p, t_new, out.y, mode, &dummy);
+          // A step of length b from t (the base at its stages by angle addition where kept).
+          auto redo = [&](double len) {
+            if constexpr (Sys::kReversals) {
+              BaseAtStages bb = base;
+              bb.stages(p, t, len);
+              return dp5_step(sys, p, t, y, k1, len, mode, L, es, &bb);
+            } else {
+              return dp5_step(sys, p, t, y, k1, len, mode, L, es);
+            }
+          };
           // The switch is located on the step's continuous extension (no right-hand-side
           // evaluations; re-integrating the step for every trial point cost ~20 steps per
           // switch, 80 % of the Karnopp run at 4 mm/s), then the step is taken to it. The
           // extension's error (~ the local error) can put that point a hair before the event
           // of the real step fires; a secant from there moves it past, and if that fails too
           // the switch is located on real steps as before.
-          const DenseStep<State> dense(y, out.y, kst, hh);
+          const DenseStep<State> dense = make_dense(y, out.y, kst, hh, es);
           const BaseInStep bis(p, t, hh);
           auto yd_event = [&](double th) {
             const State o = dense.at(th / hh);
             return sys.event_at(bis.point(p, t + th, th, o), o, mode, &dummy);
           };
           State yd = out.y;
-          double b = locate_switch(f0, hh, fh, yd, [&](double th, State& o) {
-            o = dense.at(th / hh);
-            return sys.event_at(bis.point(p, t + th, th, o), o, mode, &dummy);
-          });
+          // GMS (kReversals): to 1e-7 h on the extension, whose own error is larger; the
+          // real step to the point is checked below (~14 fewer event evaluations per switch).
+          double b = locate_switch(
+              f0, hh, fh, yd,
+              [&](double th, State& o) {
+                o = dense.at(th / hh);
+                return sys.event_at(bis.point(p, t + th, th, o), o, mode, &dummy);
+              },
+              Sys::kReversals ? 1e-7 : 1e-10);
           StepOut ob = out;
           bool fired = b == hh;
           const double min_move = std::fmax(1e-15, 1e-10 * hh);  // the locator's tolerance
-          for (int tries = 0; !fired && tries < 3; ++tries) {
-            ob = dp5_step(sys, p, t, y, k1, b, mode, L, es);
+          // GMS (kReversals) gets more tries, each moving at least twice as far as the last.
+          constexpr int kTries = Sys::kReversals ? 8 : 3;
+          double moved = 0.0;
+          for (int tries = 0; !fired && tries < kTries; ++tries) {
+            ob = redo(b);
             const double fb = sys.event(p, t + b, ob.y, mode, &dummy);
             fired = fb < 0.0;
             if (fired && tries == 0) {
@@ -408,7 +474,7 @@ void adaptive(RunContext& ctx, const Sys& sys, const ErrorScaleT<typename Sys::S
               const double back = slope < 0.0 ? fb / slope : 0.0;  // > 0: the root lies before b
               if (back > std::fmax(min_move, 1e-9 * hh) && back < b) {
                 const double nb = b - 0.99 * back;
-                StepOut on = dp5_step(sys, p, t, y, k1, nb, mode, L, es);
+                StepOut on = redo(nb);
                 if (sys.event(p, t + nb, on.y, mode, &dummy) < 0.0) {
                   ob = on;
                   b = nb;
@@ -417,6 +483,18 @@ void adaptive(RunContext& ctx, const Sys& sys, const ErrorScaleT<typename Sys::S
             }
             if (!fired) {  // secant towards the end of the step, 1 % beyond, at least min_move
               double nb = b + 1.01 * fb * (hh - b) / (fb - fh);
+              if constexpr (Sys::kReversals) {
+                // GMS: the event jumps where v_r reverses (the sticking elements' load changes
+                // sign), from v_r [m/s] to a force [N], so the secant to the step's end hardly
+                // moves b (41k of 76k switches went on to regula falsi on real steps at 1.1
+                // mm/s, rtol 1e-4: 1.5M extra steps). A Newton step on the extension's event
+                // slope just before b (the continuous part) instead.
+                const double db = std::fmax(min_move, 1e-6 * b);
+                const double slope = (yd_event(b - db) - yd_event(b - 2.0 * db)) / db;
+                if (slope < 0.0) nb = std::fmax(nb, b - 1.01 * fb / slope);
+                nb = std::fmax(nb, b + 2.0 * moved);
+                moved = std::fmin(nb, hh) - b;
+              }
               if (!(nb >= b + min_move)) nb = b + min_move;  // fb == 0: the event sits at 0
               b = std::fmin(nb, hh);
               if (b == hh) {
@@ -428,7 +506,7 @@ void adaptive(RunContext& ctx, const Sys& sys, const ErrorScaleT<typename Sys::S
           if (!fired) {
             ob = out;
             b = locate_switch(f0, hh, fh, ob, [&](double th, StepOut& o) {
-              o = dp5_step(sys, p, t, y, k1, th, mode, L, es);
+              o = redo(th);
               return sys.event(p, t + th, o.y, mode, &dummy);
             });
           }
@@ -482,6 +560,8 @@ ErrorScaleT<StateOf<M>> error_scale(const SimConfig& c, const M& model) {
   if constexpr (M::kStates > 0) es.k_t = w.z[0];
   if constexpr (M::kStates > 1)
     for (int q = 0; q < M::kStates - 1; ++q) es.k_zs[q] = w.z[q + 1];
+  if constexpr (M::kStates > 1 && requires { model.active_states(); })
+    es.nzs = static_cast<std::size_t>(std::clamp(model.active_states(), 1, M::kStates) - 1);
   return es;
 }
 

@@ -12,12 +12,28 @@
 #include <vector>
 
 #include "extended.h"
+#include "stickslip/engine/exp.h"
 #include "stickslip/engine/metrics.h"
 #include "stickslip/engine/params.h"
 #include "stickslip/engine/simulate.h"
 #include "trace.h"
 
 namespace stickslip::engine::detail {
+
+/// cos(x) and sin(x) for |x| <= 1 by their Taylor series (Horner in x^2): the small offsets of
+/// the base's phase inside a step, added to one glibc sin/cos pair of the large phase (angle
+/// addition) by the adaptive and the Rosenbrock integrators.
+inline void small_sincos(double x, double* c_out, double* s_out) noexcept {
+  // |x| <= 1: the first omitted terms are x^20/20! < 4.2e-19 and x^19/19! < 8.3e-18.
+  const double x2 = x * x;
+  double c = kInvFactorial[18], sn = kInvFactorial[19];
+  for (int k = 16; k >= 0; k -= 2) {  // Horner in x^2, alternating signs
+    c = kInvFactorial[k] - x2 * c;
+    sn = kInvFactorial[k + 1] - x2 * sn;
+  }
+  *c_out = c;
+  *s_out = sn * x;
+}
 
 /// Body, drive and the current stage's base motion. u'(t) = v_a cos(w (t - t0)).
 struct Plant {
@@ -381,10 +397,11 @@ void drive_stages(RunContext& ctx, S& y, double* h, IntegrateStage&& integrate_s
 /// 1e-4 s late (the ~1e-2 N RMS "adaptive vs rk4_event bias"; test
 /// EventLocation.AdaptiveKarnoppBreakawayOnTime).
 template <class Out, class Eval>
-double locate_switch(double f0, double h, double f_h, Out& out_h, Eval&& eval) {
+double locate_switch(double f0, double h, double f_h, Out& out_h, Eval&& eval,
+                     double rel_tol = 1e-10) {
   double a = 0.0, fa = std::fmax(f0, 0.0), b = h, fb = f_h;
   int side = 0;
-  const double tol = std::fmax(1e-15, 1e-10 * h);
+  const double tol = std::fmax(1e-15, rel_tol * h);
   double width_check = b - a;
   for (int it = 0; it < 200 && b - a > tol; ++it) {
     bool bisect = false;
