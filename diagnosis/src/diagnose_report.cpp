@@ -167,11 +167,21 @@ std::string summary_text(const Diagnosis& d) {
 
 namespace {
 
+/// What the plots call the extended model: the named cause; else the best candidate, marked not
+/// significant; else (no candidate tested, e.g. an inadequate base) that there is none.
+std::string extension_label(const Diagnosis& d) {
+  if (d.cause != "none") return d.cause;
+  if (!d.best_candidate.empty() && d.best_candidate != "none")
+    return d.best_candidate + " (not significant)";
+  return d.adequacy.verdict == "inadequate" ? "no extension: the base is inadequate"
+                                            : "no extension";
+}
+
 /// Plot data of every run (t, measured, base, extended, residuals) and its panel in the script.
 void run_plots(const Diagnosis& d, const std::filesystem::path& dir, std::ostream& gp,
                std::vector<std::string>& files) {
   // Plot data: one file per run (t, measured, base, extended, residual base, residual ext).
-  const std::string ext_label = d.cause != "none" ? d.cause : (d.best_candidate + " (not significant)");
+  const std::string ext_label = extension_label(d);
   for (std::size_t k = 0; k < d.series.size(); ++k) {
     const RunSeries& s = d.series[k];
     const std::string dat = "run" + std::to_string(k + 1) + ".dat";
@@ -184,7 +194,7 @@ void run_plots(const Diagnosis& d, const std::filesystem::path& dir, std::ostrea
     }
     files.push_back((dir / dat).string());
     gp << "set output '" << "run" << k + 1 << ".png'\nset multiplot layout 2,1 title "
-       << gp_str(s.name + ": measured vs " + to_string(d.base_model) + " and + " + ext_label)
+       << gp_str(s.name + ": measured vs " + to_string(d.base_model) + " and " + ext_label)
        << " noenhanced\n"  // names hold underscores, not subscripts
        << "set ylabel 'F_d [N]'\nplot '" << dat << "' u 1:2 w l lc 'gray' t 'measured', '' u 1:3 w l lc 'blue' t 'base', '' u 1:4 w l lc 'red' t 'extended'\n"
        << "set ylabel 'residual [N]'\nset xlabel 't [s]'\nplot '" << dat << "' u 1:5 w l lc 'blue' t 'base', '' u 1:6 w l lc 'red' t 'extended'\n"
@@ -195,7 +205,7 @@ void run_plots(const Diagnosis& d, const std::filesystem::path& dir, std::ostrea
 /// The evidence tables and evidence.png's six panels, the named cause's marked.
 void evidence_plots(const Diagnosis& d, const std::filesystem::path& dir, std::ostream& gp,
                     std::vector<std::string>& files) {
-  const std::string ext_label = d.cause != "none" ? d.cause : (d.best_candidate + " (not significant)");
+  const std::string ext_label = extension_label(d);
   // Evidence: the base's and the extended model's residuals against what each cause acts on.
   auto table = [&](const std::string& name, const std::vector<std::vector<double>>& cols,
                    const char* header) {

@@ -155,6 +155,8 @@ void check_json_and_plots(const Diagnosis& d) {
   const std::string gp = slurp(dir.path() / "plots.gp");
   EXPECT_NE(gp.find("[cause] residual vs position"), std::string::npos);
   EXPECT_NE(gp.find("stand''s run 1"), std::string::npos);
+  // The run plots' title names the base and the named cause (no stray "+", no empty name).
+  EXPECT_NE(gp.find(": measured vs lugre and drift"), std::string::npos) << gp.substr(0, 600);
   if (std::system("command -v gnuplot >/dev/null 2>&1") != 0) {
     ADD_FAILURE() << "gnuplot not installed (scripts/install-deps.sh installs it)";
     return;
