@@ -6,6 +6,8 @@
 // Run by CMake at build time (stickslip_embed_json, common/CMakeLists.txt); the binaries serve
 // and validate against the filled schemas only. The markers:
 //   "@models@"                  an array element: the model ids, quoted, in list order
+//   "@effects@"                 an array element: the catalogue extension ids, quoted, in
+//                               catalogue order (engine/include/stickslip/engine/extensions.h)
 //   "@default_model@"           a string: the id of the engine's default model (SimConfig)
 //   @model_names@               inside a string: the model ids joined with ", "
 //   @titles_using:NAME@         inside a string: the titles of the models with parameter NAME
@@ -24,6 +26,7 @@
 #include <string>
 #include <vector>
 
+#include "stickslip/engine/extensions.h"
 #include "stickslip/engine/params.h"
 #include "stickslip/engine/registry.h"
 
@@ -169,6 +172,10 @@ std::string fill(std::string text) {
   }
   text = fill_member_lines(text);
   replace_all(text, "\"@models@\"", ids);
+  std::string effects;
+  for (const ExtensionKind k : extension_catalogue())
+    effects += (effects.empty() ? "" : ", ") + quoted(to_string(k));
+  replace_all(text, "\"@effects@\"", effects);
   replace_all(text, "\"@default_model@\"", quoted(to_string(SimConfig{}.model)));
   replace_all(text, "@model_names@", names);
   static const std::regex kTitles(R"(@titles_using:([A-Za-z0-9_]+)@)");

@@ -71,7 +71,7 @@ void add_diagnose_command(CLI::App& app, int& exit_code) {
   cmd->add_option("--models", a->models,
                   "base models to calibrate (default: all, " + engine::model_names() + ")");
   cmd->add_option("--candidates", a->candidates,
-                  "catalogue extensions to test (default: all eight)");
+                  "catalogue extensions to test (default: all of them)");
   auto* fit_rate = cmd->add_option("--fit-rate", a->opt.fit_rate, "decimated samples per second [Hz]")->capture_default_str();
   auto* holdout = cmd->add_option("--holdout", a->opt.holdout_fraction, "held-out last part of each stage [-]")->capture_default_str();
   auto* alpha = cmd->add_option("--alpha", a->opt.alpha, "family-wise significance level [-]")->capture_default_str();

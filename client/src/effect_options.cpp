@@ -8,17 +8,35 @@
 
 namespace stickslip::client {
 
+namespace {
+
+/// "none, viscous, ...": the catalogue's ids.
+std::string effect_ids() {
+  std::string out = "none";
+  for (const engine::ExtensionKind k : engine::extension_catalogue())
+    out += std::string(", ") + engine::to_string(k);
+  return out;
+}
+
+/// "sigma2, stribeck_delta, ...": every extension parameter name.
+std::string effect_parameter_names() {
+  std::string out;
+  for (const std::string& n : engine::all_extension_parameter_names())
+    out += (out.empty() ? "" : ", ") + n;
+  return out;
+}
+
+}  // namespace
+
 void add_effect_options(CLI::App& cmd, std::string& effect, std::vector<std::string>& params) {
-  cmd.add_option("--effect", effect,
-                 "catalogue extension: none, viscous, stribeck_shape, dwell_time, waviness, "
-                 "drift, normal_load_modulation, sensor_dynamics, drive_damping")
+  cmd.add_option("--effect", effect, "catalogue extension: " + effect_ids())
       ->capture_default_str();
   cmd.add_option("--effect-param", params,
                  "extension parameter NAME=VALUE (SI), repeatable: sigma2 [N s/m], "
                  "stribeck_delta [-], dwell_A [N], dwell_tau [s], dwell_v [m/s], waviness_eps [-], "
                  "waviness_lambda [m], waviness_phi [rad], drift_gamma [1/m], load_eta [-], "
                  "load_phi [rad], sensor_tau [s] (or sensor_omega_n [rad/s]), sensor_zeta [-], "
-                 "c_d [N s/m]");
+                 "c_d [N s/m], vw_beta [-], vw_v [m/s]");
 }
 
 void apply_effect_options(const std::string& effect, const std::vector<std::string>& params,
@@ -31,10 +49,8 @@ void apply_effect_options(const std::string& effect, const std::vector<std::stri
     const std::string name = p.substr(0, eq), text = p.substr(eq + 1);
     if (engine::extension_of_parameter(name) == engine::ExtensionKind::kNone)
       throw engine::InvalidParameter("effect-param", name,
-                             "not an extension parameter; expected one of sigma2, "
-                             "stribeck_delta, dwell_A, dwell_tau, dwell_v, waviness_eps, "
-                             "waviness_lambda, waviness_phi, drift_gamma, load_eta, load_phi, "
-                             "sensor_tau, sensor_omega_n, sensor_zeta, c_d");
+                             "not an extension parameter; expected one of " +
+                                 effect_parameter_names());
     char* end = nullptr;
     const double v = std::strtod(text.c_str(), &end);
     if (text.empty() || end != text.c_str() + text.size())

@@ -109,6 +109,9 @@ std::vector<std::vector<double>> fixed_extension_starts(engine::ExtensionKind k)
       return {{0.0, 0.0}, {0.1, 0.0}, {-0.1, 0.0}, {0.0, 0.1}, {0.0, -0.1}};
     case engine::ExtensionKind::kSensorDynamics: return {{2e-3, 0.7}, {1e-3, 0.3}, {5e-3, 1.0}, {5e-3, 0.3}};
     case engine::ExtensionKind::kDriveDamping: return {{0.0}, {10.0}, {30.0}, {80.0}};
+    // (vw_beta, vw_v): the log slope at a reference near v_d and one near the slip velocities.
+    case engine::ExtensionKind::kVelocityWeakening:
+      return {{0.0, 2e-3}, {0.05, 2e-3}, {0.15, 2e-3}, {0.1, 1e-2}};
     default: return {};
   }
 }
@@ -210,7 +213,8 @@ void bisect_profile(const CandidateInputs& in, const Held& held_model, const Shi
 }
 
 /// Starting points of the candidate `kind` (full theta: base parameters, then ext's). Effects
-/// that act on the slip itself (viscous, drive damping, Stribeck shape, dwell time) change the
+/// that act on the slip itself (viscous, drive damping, Stribeck shape, dwell time, velocity
+/// weakening) change the
 /// stick-slip cycle so much that the base optimum is no start for a moderate size: their cycle
 /// features at (base optimum, size) miss slips. For them every starting size gets its own
 /// profile start: the base parameters refitted on the features with the extension held at that
@@ -223,8 +227,9 @@ Starts candidate_starts(const CandidateInputs& in, engine::ExtensionKind kind,
   const std::vector<double>& origin = in.origin.empty() ? base.theta : in.origin;
   Starts s;
   const bool slip_force = kind == engine::ExtensionKind::kViscous || kind == engine::ExtensionKind::kDriveDamping;
-  const bool profile = slip_force ||
-                       kind == engine::ExtensionKind::kStribeckShape || kind == engine::ExtensionKind::kDwellTime;
+  const bool profile = slip_force || kind == engine::ExtensionKind::kStribeckShape ||
+                       kind == engine::ExtensionKind::kDwellTime ||
+                       kind == engine::ExtensionKind::kVelocityWeakening;
   auto ext_starts = extension_starts(kind, ext, in.ev, in.scan, in.F_C0, in.scales);
   bool wave_profile = false;
   if (kind == engine::ExtensionKind::kWaviness) {

@@ -171,7 +171,9 @@ CalibratedModel calibrated_from_json(const nlohmann::json& j) {
 std::string_view diagnosis_schema_text() noexcept { return generated::kDiagnosisSchemaJson; }
 
 std::string_view evidence_view(std::string_view cause) noexcept {
-  if (cause == "viscous" || cause == "stribeck_shape" || cause == "drive_damping") return "velocity";
+  if (cause == "viscous" || cause == "stribeck_shape" || cause == "drive_damping" ||
+      cause == "velocity_weakening")
+    return "velocity";
   if (cause == "dwell_time") return "stick_time";
   if (cause == "drift") return "position";
   if (cause == "waviness") return "x_spectrum";

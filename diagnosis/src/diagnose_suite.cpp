@@ -92,6 +92,12 @@ std::vector<HiddenCase> hidden_effect_cases() {
   c.push_back(effect("sensor_dynamics", K::kSensorDynamics, "sensor_tau", 5e-3, 0.15));
   c.push_back(effect("drive_damping", K::kDriveDamping, "c_d", 20.0, 0.3));
 
+  // Velocity weakening: f = 1 - 0.1 ln(1 + |v_r| / 2 mm/s), 0.96 at v_d, 0.88 at 5 mm/s and
+  // about 0.76 at the slips' 2 cm/s. Judged on vw_beta (the log slope).
+  HiddenCase vw = effect("velocity_weakening", K::kVelocityWeakening, "vw_beta", 0.1, 0.4);
+  vw.more = {{"vw_v", 2e-3}};
+  c.push_back(vw);
+
   const HiddenCase clean = effect("clean_white", K::kNone, "", 0.0, 0.3);
   c.push_back(clean);
   add_long_only_cases(clean, effect, &c);
@@ -241,6 +247,11 @@ const std::vector<EffectRange>& effect_ranges() {
          put(o, x, "sensor_zeta", d(0.5, 1.0));
        }},
       {K::kDriveDamping, "c_d", 0.3, [](Draw& d, measured::SynthOptions& o, Dr& x) { put(o, x, "c_d", d(15, 40)); }},
+      {K::kVelocityWeakening, "vw_beta", 0.4,
+       [](Draw& d, measured::SynthOptions& o, Dr& x) {
+         put(o, x, "vw_beta", d(0.06, 0.15));
+         put(o, x, "vw_v", d(1e-3, 4e-3));
+       }},
   };
   return r;
 }
@@ -291,11 +302,13 @@ measured::SynthOptions draw_dataset(Draw& d, RandomFamily family, std::vector<st
 
 std::vector<RandomCase> random_cases(std::uint64_t seed, RandomFamily family) {
   std::vector<RandomCase> out;
-  std::uint64_t k = 0;
-  const auto make = [&](const EffectRange* e, const char* null_name, bool ar1) {
+  // Each case's draw stream is fixed by its slot k: the first eight effects 1-8, the nulls 9 and
+  // 10, later effects (velocity_weakening) 11 on, so that a case keeps its numbers for a seed
+  // when the catalogue grows (results measured before stay reproducible).
+  const auto make = [&](const EffectRange* e, const char* null_name, bool ar1, std::uint64_t k) {
     RandomCase c;
     c.seed = seed;
-    Draw d(seed * 1000003ULL + (++k) * 7919ULL);
+    Draw d(seed * 1000003ULL + k * 7919ULL);
     c.data = draw_dataset(d, family, &c.drawn);
     if (e) {
       c.kind = e->kind;
@@ -318,9 +331,14 @@ std::vector<RandomCase> random_cases(std::uint64_t seed, RandomFamily family) {
     c.data.seed = seed * 31 + k;
     out.push_back(std::move(c));
   };
-  for (const EffectRange& e : effect_ranges()) make(&e, nullptr, false);
-  make(nullptr, "null_white", false);
-  make(nullptr, "null_ar1", true);
+  constexpr std::uint64_t kFirstEight = 8;
+  std::uint64_t slot = 0;
+  for (const EffectRange& e : effect_ranges()) {
+    ++slot;
+    make(&e, nullptr, false, slot <= kFirstEight ? slot : slot + 2);
+  }
+  make(nullptr, "null_white", false, kFirstEight + 1);
+  make(nullptr, "null_ar1", true, kFirstEight + 2);
   return out;
 }
 
@@ -334,7 +352,8 @@ std::string random_suite_ranges() {
          "viscous sigma2 U(30, 100) N s/m; stribeck_shape delta U(0.8, 1.2) or U(3, 4); dwell_time "
          "A U(0.4, 1) N, tau U(0.05, 0.3) s; waviness eps U(0.04, 0.08), lambda U(1.5, 4) mm, phi "
          "U(0, 2 pi); drift gamma +-U(8, 20) /m; normal_load_modulation eta U(0.2, 0.4), phi U(0.6, "
-         "2.5) rad; sensor_dynamics tau U(3, 8) ms, zeta U(0.5, 1); drive_damping c_d U(15, 40) N s/m\n";
+         "2.5) rad; sensor_dynamics tau U(3, 8) ms, zeta U(0.5, 1); drive_damping c_d U(15, 40) N s/m; "
+         "velocity_weakening beta U(0.06, 0.15), vw_v U(1, 4) mm/s\n";
 }
 
 HiddenVerdict judge(const RandomCase& c, const Diagnosis& d) {

@@ -3,7 +3,8 @@
 // without an ExtRuntime (the default) never reaches this code.
 //
 // Each extension reduces, at one instant, to
-//   level  multiplier of the friction level (waviness, drift, normal load) [-]
+//   level  multiplier of the friction level (waviness, drift, normal load, velocity
+//          weakening) [-]
 //   dFS    addition to the static friction force (dwell time) [N]
 //   sigma2 viscous coefficient [N s/m], delta the Stribeck exponent, c_d the drive damping
 // and each model's eval_ext (models/*.h) applies them with the same operation order as its base
@@ -36,8 +37,10 @@ struct ExtRuntime : EffectTerms {
   }
   bool tracks_stick() const noexcept { return kind == ExtensionKind::kDwellTime; }
 
-  /// v_a, w, t0: the current stage's base vibration (u' = v_a cos(w (t - t0))).
-  Mod modulation(double t, double x, double v_a, double w, double t0) const noexcept {
+  /// v_a, w, t0: the current stage's base vibration (u' = v_a cos(w (t - t0))); v_r the
+  /// relative velocity x' - u' [m/s].
+  Mod modulation(double t, double x, double v_r, double v_a, double w,
+                 double t0) const noexcept {
     Mod m;
     switch (kind) {
       case ExtensionKind::kWaviness:
@@ -49,6 +52,10 @@ struct ExtRuntime : EffectTerms {
         break;
       case ExtensionKind::kDwellTime:
         m.dFS = e.dwell_A * std::log1p(std::fmax(t - t_slip, 0.0) / e.dwell_tau);
+        break;
+      case ExtensionKind::kVelocityWeakening:
+        m.level = std::fmax(1.0 - e.vw_beta * std::log1p(std::fabs(v_r) / e.vw_v),
+                            kVelocityWeakeningFloor);
         break;
       default: break;
     }

@@ -8,7 +8,7 @@
 namespace stickslip::engine {
 namespace {
 
-enum class Dom { kNonNegative, kPositive, kFraction, kAny };
+enum class Dom { kNonNegative, kPositive, kFraction, kHalf, kAny };
 
 struct ExtField {
   const char* name;
@@ -36,6 +36,8 @@ const ExtField kExtFields[] = {
     {"sensor_tau", ExtensionKind::kSensorDynamics, Dom::kNonNegative, &Extension::sensor_tau, 0.0},
     {"sensor_zeta", ExtensionKind::kSensorDynamics, Dom::kPositive, &Extension::sensor_zeta, 0.7},
     {"c_d", ExtensionKind::kDriveDamping, Dom::kNonNegative, &Extension::c_d, 0.0},
+    {"vw_beta", ExtensionKind::kVelocityWeakening, Dom::kHalf, &Extension::vw_beta, 0.0},
+    {"vw_v", ExtensionKind::kVelocityWeakening, Dom::kPositive, &Extension::vw_v, 1.0e-3},
 };
 
 std::string fmt(double v) {
@@ -50,6 +52,7 @@ const char* check(Dom d, double v) {
     case Dom::kNonNegative: return v >= 0 ? nullptr : "must be >= 0";
     case Dom::kPositive: return v > 0 ? nullptr : "must be > 0";
     case Dom::kFraction: return (v >= 0 && v < 1) ? nullptr : "must be in [0, 1)";
+    case Dom::kHalf: return (v >= 0 && v < 0.5) ? nullptr : "must be in [0, 0.5)";
     case Dom::kAny: return nullptr;
   }
   return nullptr;
@@ -68,6 +71,7 @@ const char* to_string(ExtensionKind k) noexcept {
     case ExtensionKind::kNormalLoadModulation: return "normal_load_modulation";
     case ExtensionKind::kSensorDynamics: return "sensor_dynamics";
     case ExtensionKind::kDriveDamping: return "drive_damping";
+    case ExtensionKind::kVelocityWeakening: return "velocity_weakening";
   }
   return "?";
 }
@@ -77,7 +81,8 @@ const std::vector<ExtensionKind>& extension_catalogue() {
       ExtensionKind::kViscous,  ExtensionKind::kStribeckShape,
       ExtensionKind::kDwellTime, ExtensionKind::kWaviness,
       ExtensionKind::kDrift,    ExtensionKind::kNormalLoadModulation,
-      ExtensionKind::kSensorDynamics, ExtensionKind::kDriveDamping};
+      ExtensionKind::kSensorDynamics, ExtensionKind::kDriveDamping,
+      ExtensionKind::kVelocityWeakening};
   return kAll;
 }
 
@@ -88,10 +93,10 @@ ExtensionKind extension_from_string(std::string_view name) {
   throw InvalidParameter("effect", std::string(name),
                          "unknown effect; expected none or one of viscous, stribeck_shape, "
                          "dwell_time, waviness, drift, normal_load_modulation, sensor_dynamics, "
-                         "drive_damping");
+                         "drive_damping, velocity_weakening");
 }
 
-bool Extension::IsValid(std::vector<std::string>* errors, double x_max) const {
+bool Extension::IsValid(std::vector<std::string>* errors, double x_max, double v_max) const {
   bool ok = true;
   auto fail = [&](const std::string& m) {
     ok = false;
@@ -110,6 +115,15 @@ bool Extension::IsValid(std::vector<std::string>* errors, double x_max) const {
       !(1.0 + drift_gamma * x_max > 0.05))
     fail("drift_gamma = " + fmt(drift_gamma) + ": the friction level 1 + gamma x falls to " +
          fmt(1.0 + drift_gamma * x_max) + " at x = " + fmt(x_max) + " m (must stay > 0.05)");
+  if (kind == ExtensionKind::kVelocityWeakening && v_max > 0 && std::isfinite(vw_beta) &&
+      std::isfinite(vw_v) && vw_v > 0) {
+    const double f = 1.0 - vw_beta * std::log1p(v_max / vw_v);
+    if (!(f > kVelocityWeakeningFloor))
+      fail("vw_beta = " + fmt(vw_beta) + ": the friction level 1 - beta ln(1 + |v_r| / vw_v) "
+           "falls to " + fmt(f) + " at the run's drive plus vibration velocity " + fmt(v_max) +
+           " m/s with vw_v = " + fmt(vw_v) + " m/s (must stay > " +
+           fmt(kVelocityWeakeningFloor) + ")");
+  }
   return ok;
 }
 

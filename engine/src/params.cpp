@@ -1,5 +1,6 @@
 #include "stickslip/engine/params.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <functional>
@@ -211,8 +212,16 @@ bool SimConfig::IsValid(std::vector<std::string>* errors) const {
          format_number(in.max_steps) + " steps");
   if (!std::isfinite(in.atol) || !(in.atol > 0))
     fail("atol = " + format_number(in.atol) + ": must be a finite number > 0");
-  // x_max: sliding distance of the run, about v_d times its duration [m].
-  if (!extension.IsValid(errors, drive.v_d * total_duration())) ok = false;
+  // x_max: sliding distance of the run, about v_d times its duration [m]; v_max: the drive
+  // plus the largest vibration velocity [m/s], reached by |v_r| in every vibrating period.
+  double v_max = std::fabs(drive.v_d);
+  double v_a_max = 0.0;
+  for (const auto& s : stages)
+    if (std::isfinite(s.v_a)) v_a_max = std::max(v_a_max, s.v_a);
+  v_max += v_a_max;
+  if (!extension.IsValid(errors, drive.v_d * total_duration(),
+                         std::isfinite(v_max) ? v_max : 0.0))
+    ok = false;
   if (std::isfinite(trace.rate) ? trace.rate < 0 : true)
     fail("trace_rate = " + format_number(trace.rate) + ": must be a finite number >= 0");
   return ok;

@@ -49,11 +49,12 @@ struct Plant {
   Point point(double t, double x, double v) const noexcept {
     if (ext) [[unlikely]]
       return {drive_force(t, x) + ext->c_d * (v_d - v), v - base_velocity(t), base_accel(t),
-              modulation(t, x), ext->sigma2};
+              modulation(t, x, v - base_velocity(t)), ext->sigma2};
     return {drive_force(t, x), v - base_velocity(t), base_accel(t)};
   }
-  Mod modulation(double t, double x) const noexcept {
-    return ext ? ext->modulation(t, x, v_a, w, t0) : Mod{};
+  /// v_r: the relative velocity x' - u' [m/s].
+  Mod modulation(double t, double x, double v_r) const noexcept {
+    return ext ? ext->modulation(t, x, v_r, v_a, w, t0) : Mod{};
   }
   double drive_force(double t, double x) const noexcept { return k_d * fmadd(v_d, t, -x); }
 };
@@ -161,7 +162,7 @@ inline DerivT<Model::kStates> rhs(const Model& model, const Plant& p, double t,
       if (p.ext) [[unlikely]] {
         const double F_d = p.drive_force(t, y.x) + p.ext->c_d * (p.v_d - y.v);
         const FrictionEval fe =
-            model.eval_ext(*p.ext, p.modulation(t, y.x), y.v - ub, y.s, F_d);
+            model.eval_ext(*p.ext, p.modulation(t, y.x, y.v - ub), y.v - ub, y.s, F_d);
         return {{y.v, (F_d - fe.F_f) * p.m_inv, fe.ds}, F_d, fe.F_f};
       }
     }
@@ -174,7 +175,8 @@ inline DerivT<Model::kStates> rhs(const Model& model, const Plant& p, double t,
     if constexpr (WithEffects<Model>) {
       if (p.ext) [[unlikely]] {
         F_d += p.ext->c_d * (p.v_d - y.v);
-        fe = model.eval_ext(*p.ext, p.modulation(t, y.x), y.v - ub, internal_states(y), F_d);
+        fe = model.eval_ext(*p.ext, p.modulation(t, y.x, y.v - ub), y.v - ub,
+                            internal_states(y), F_d);
       } else {
         fe = model(y.v - ub, internal_states(y), F_d);
       }

@@ -36,7 +36,7 @@ double mean_between(const std::vector<TraceSample>& tr, double t0, double t1) {
 }  // namespace
 
 TEST(Extensions, CatalogueIdsAndNames) {
-  ASSERT_EQ(extension_catalogue().size(), 8u);
+  ASSERT_EQ(extension_catalogue().size(), 9u);
   for (ExtensionKind k : extension_catalogue()) {
     EXPECT_EQ(extension_from_string(to_string(k)), k);
     EXPECT_FALSE(extension_parameter_names(k).empty()) << to_string(k);
@@ -77,6 +77,27 @@ TEST(Extensions, BadValuesNameFieldAndValue) {
   EXPECT_NE(errors[0].find("drift_gamma"), std::string::npos);
   set_parameter(d, "sensor_omega_n", 500.0);  // wrong effect again
   EXPECT_DOUBLE_EQ(d.extension.sensor_tau, 1.0 / 500.0);
+  // Velocity weakening: beta outside [0, 0.5), a reference velocity <= 0, and a level that the
+  // run's own drive velocity would push below the floor.
+  try {
+    set_parameter(d, "vw_beta", 0.5);
+    FAIL() << "no throw";
+  } catch (const InvalidParameter& e) {
+    EXPECT_EQ(e.field(), "vw_beta");
+    EXPECT_NE(std::string(e.what()).find("0.5"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(set_parameter(d, "vw_v", 0.0), InvalidParameter);
+  SimConfig w;
+  set_extension(w, "velocity_weakening");
+  set_parameter(w, "vw_beta", 0.45);
+  set_parameter(w, "vw_v", 1e-6);  // f(v_d = 1 mm/s) = 1 - 0.45 ln(1001) < 0
+  errors.clear();
+  EXPECT_FALSE(w.IsValid(&errors));
+  ASSERT_EQ(errors.size(), 1u);
+  EXPECT_NE(errors[0].find("vw_beta = 0.45"), std::string::npos) << errors[0];
+  EXPECT_NE(errors[0].find("vw_v = 9.99"), std::string::npos) << errors[0];
+  set_parameter(w, "vw_v", 1e-3);  // f(1 mm/s) = 0.69
+  EXPECT_TRUE(w.IsValid());
 }
 
 // Every effect at its neutral size reproduces the base model, for every model and integrator.
@@ -274,6 +295,33 @@ TEST(Extensions, SensorDynamicsLagsTheRampAndKeepsPhysics) {
       lo = std::min(lo, rl.trace[i].F_d);
     }
   EXPECT_LT(lo, lo0 - 0.3);
+}
+
+// Velocity weakening: LuGre sliding steadily (a large h_v keeps the slope positive) follows
+// f(v) (F_C + (F_S - F_C) exp(-(v/v_s)^2)) + h_v v with f = 1 - beta ln(1 + v / vw_v), at two
+// drive velocities; the level falls by the log law, not by a constant factor.
+TEST(Extensions, VelocityWeakeningLowersSteadyLevelByLogOfVelocity) {
+  const double beta = 0.1, vw = 1e-3, h_v = 2000.0, vs = 3.5e-4;
+  std::vector<double> drop;
+  for (double v : {1e-3, 4e-3}) {
+    SimConfig c = short_run(model_kind<LuGre>, 0.0, 2.0, 2.0);
+    c.friction["h_v"] = h_v;
+    c.drive.v_d = v;
+    const SimResult r0 = run_ok(c);
+    c.extension.kind = ExtensionKind::kVelocityWeakening;
+    c.extension.vw_beta = beta;
+    c.extension.vw_v = vw;
+    const SimResult r = run_ok(c);
+    const double f = 1.0 - beta * std::log1p(v / vw);
+    const double curve = 8.3 + 2.8 * std::exp(-(v / vs) * (v / vs));
+    EXPECT_NEAR(r0.stages[1].mean_force, curve + h_v * v, 2e-3 * curve) << v;
+    EXPECT_NEAR(r.stages[1].mean_force, f * curve + h_v * v, 2e-3 * curve) << v;
+    EXPECT_EQ(r.stages[1].slip_events, 0) << v;
+    drop.push_back((r0.stages[1].mean_force - r.stages[1].mean_force) / curve);
+  }
+  // 1 - f: beta ln 2 = 0.069 at 1 mm/s, beta ln 5 = 0.161 at 4 mm/s.
+  EXPECT_NEAR(drop[0], beta * std::log(2.0), 3e-3);
+  EXPECT_NEAR(drop[1], beta * std::log(5.0), 3e-3);
 }
 
 // Drive damping: dissipation in the drive shrinks the stick-slip amplitude monotonically, and

@@ -33,14 +33,29 @@
 //                          Only the *measured* signal changes: the trace's F_d is y, while the
 //                          physics and the per-stage metrics use the true F_d.
 //   drive_damping          F_d = k_d (v_d t - x) + c_d (v_d - x'),  c_d [N s/m] >= 0
+//   velocity_weakening     steady sliding friction falls with the logarithm of the slip velocity,
+//                          as real contacts show (paper on paper: Heslot et al. 1994):
+//                          F_C, F_S x f(v_r), f = max(1 - vw_beta ln(1 + |v_r| / vw_v), 0.05)
+//                          vw_beta in [0, 0.5) [-], vw_v [m/s] > 0 (reference velocity).
+//                          f(0) = 1: a stuck contact keeps its level; the floor 0.05 is reached
+//                          only at |v_r| >= vw_v (exp(0.95 / vw_beta) - 1), far above the slip
+//                          velocities of a run (IsValid rejects a run whose drive and vibration
+//                          velocities alone, v_d + max v_a, would reach it). Dahl: F_C x f, so
+//                          its steady sliding force is F_C f(v_d); Karnopp: F_S inside the stick
+//                          band (|v_r| <= DV, where f ~ 1) and F_slip x f while slipping; LuGre
+//                          and elasto-plastic: F_C and F_S inside g(v_r), so the steady curve is
+//                          f(v) (F_C + (F_S - F_C) exp(-|v/v_s|^2)) + h_v v; Reset Integrator:
+//                          the whole contact force, and its sliding force k_t s0 f(v_r).
+//                          Rate-and-state and GMS take no catalogue effect (rate-and-state has
+//                          its own logarithmic rate dependence, a - b).
 //
-// "Friction level" scaling (waviness, drift, normal load) multiplies F_C and F_S (Dahl: F_C;
+// "Friction level" scaling (waviness, drift, normal load, velocity weakening) multiplies F_C and F_S (Dahl: F_C;
 // Karnopp: F_S and F_slip; LuGre: F_C and F_S inside g(v_r), so the bristle relaxes to the new
 // level; Reset Integrator: the whole contact force (1 + a) k_t s + beta s', i.e. both the
 // sliding force k_t s0 and the breakaway force).
 //
 // Every effect has a neutral value of its size parameter (sigma2 = 0, delta = 2, A = 0, eps = 0,
-// gamma = 0, eta = 0, sensor_tau = 0, c_d = 0) at which it reproduces the base model exactly.
+// gamma = 0, eta = 0, sensor_tau = 0, c_d = 0, vw_beta = 0) at which it reproduces the base model exactly.
 
 #include <string>
 #include <string_view>
@@ -58,14 +73,18 @@ enum class ExtensionKind {
   kNormalLoadModulation,
   kSensorDynamics,
   kDriveDamping,
+  kVelocityWeakening,
 };
 /// The catalogue ids: "none", "viscous", "stribeck_shape", "dwell_time", "waviness", "drift",
-/// "normal_load_modulation", "sensor_dynamics", "drive_damping".
+/// "normal_load_modulation", "sensor_dynamics", "drive_damping", "velocity_weakening".
 const char* to_string(ExtensionKind k) noexcept;
 /// Throws InvalidParameter("effect", name, ...) for an unknown id.
 ExtensionKind extension_from_string(std::string_view name);
-/// The eight catalogue entries (without kNone), in catalogue order.
+/// The nine catalogue entries (without kNone), in catalogue order.
 const std::vector<ExtensionKind>& extension_catalogue();
+
+/// velocity_weakening's floor of the level factor f(v_r) [-].
+inline constexpr double kVelocityWeakeningFloor = 0.05;
 
 struct Extension {
   ExtensionKind kind = ExtensionKind::kNone;
@@ -83,12 +102,17 @@ struct Extension {
   double sensor_tau = 0.0;       ///< sensor_dynamics: 1/omega_n [s]; 0 = ideal sensor
   double sensor_zeta = 0.7;      ///< sensor_dynamics: damping ratio [-]
   double c_d = 0.0;              ///< drive_damping: drive damping [N s/m]
+  double vw_beta = 0.0;          ///< velocity_weakening: log-slope of the level [-], in [0, 0.5)
+  double vw_v = 1.0e-3;          ///< velocity_weakening: reference velocity [m/s]
 
   bool active() const noexcept { return kind != ExtensionKind::kNone; }
   bool operator==(const Extension&) const = default;
   /// Appends "field = value: why" per broken constraint. x_max [m] is the largest sliding
-  /// distance of the run (for drift: 1 + gamma x must stay > 0); pass 0 to skip that check.
-  bool IsValid(std::vector<std::string>* errors = nullptr, double x_max = 0.0) const;
+  /// distance of the run (for drift: 1 + gamma x must stay > 0); v_max [m/s] the drive plus the
+  /// largest vibration velocity (for velocity_weakening: f(v_max) must stay above its floor
+  /// 0.05); pass 0 to skip either check.
+  bool IsValid(std::vector<std::string>* errors = nullptr, double x_max = 0.0,
+               double v_max = 0.0) const;
 };
 
 /// Parameter names of one effect, its size parameter first (e.g. "sigma2"; for dwell_time
