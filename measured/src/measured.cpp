@@ -159,9 +159,6 @@ namespace {
 using CsvReader = std::function<void(std::size_t index, const std::string& run_pointer,
                                      MeasuredRun& run, std::vector<common::SpecError>& errors)>;
 
-/// The manifest's runs, their conditions and their CSVs; schema errors are reported with
-/// pointers prefixed by prefix ("" for a manifest file, "/manifest" inside a server request).
-/// Throws MeasuredError listing every problem.
 /// The manifest's condition keys, their fields and units (defaulted_text).
 struct ConditionField {
   const char* key;
@@ -174,6 +171,9 @@ constexpr ConditionField kConditionFields[] = {
     {"f", &MeasuredConditions::f, "Hz"},         {"va", &MeasuredConditions::va, "m/s"},
     {"t_on", &MeasuredConditions::t_on, "s"},    {"duration", &MeasuredConditions::duration, "s"}};
 
+/// The manifest's runs, their conditions and their CSVs; schema errors are reported with
+/// pointers prefixed by prefix ("" for a manifest file, "/manifest" inside a server request).
+/// Throws MeasuredError listing every problem.
 MeasuredDataset build_dataset(const json& doc, const std::string& prefix, const CsvReader& csv) {
   std::vector<common::SpecError> errors = common::validate_against_schema(doc, measured_schema());
   if (!errors.empty()) {
