@@ -159,26 +159,31 @@ void Steps::check_stop() const {
   if (o.stop_requested && o.stop_requested()) throw DiagnosisCancelled();
 }
 
+RunReading record_reading(const RunData& r) {
+  RunReading g;
+  g.run = r.name;
+  g.why = r.rec.why;
+  g.noise_sigma = r.rec.noise.sigma;
+  g.noise_rho = r.rec.noise.rho;
+  g.spikes = r.rec.spikes;
+  g.spike_fraction = r.rec.y.empty() ? 0.0 : static_cast<double>(r.rec.spikes) / static_cast<double>(r.rec.y.size());
+  g.preload = r.rec.preload;
+  g.from_rest = r.rec.from_rest;
+  g.stuck_at_start = r.rec.stuck_at_start;
+  g.defaulted = r.cond.defaulted;
+  g.defaulted_text = measured::defaulted_text(r.cond);
+  return g;
+}
+
 std::vector<RunReading> run_readings(const Problem& P) {
   std::vector<RunReading> out;
   for (const RunData& r : P.runs) {
-    RunReading g;
-    g.run = r.name;
+    RunReading g = record_reading(r);
     g.scoring = P.stats ? "statistics" : "time_domain";
-    g.why = r.rec.why;
     if (P.stats && r.rec.phase_locked)
       g.why += "; scored on its statistics all the same: another run of the dataset is not phase-locked, "
                "and the models are compared on one footing";
-    g.noise_sigma = r.rec.noise.sigma;
-    g.noise_rho = r.rec.noise.rho;
-    g.spikes = r.rec.spikes;
-    g.spike_fraction = r.rec.y.empty() ? 0.0 : static_cast<double>(r.rec.spikes) / static_cast<double>(r.rec.y.size());
-    g.preload = r.rec.preload;
-    g.from_rest = r.rec.from_rest;
-    g.stuck_at_start = r.rec.stuck_at_start;
     g.burn_in = P.stats ? r.settle : 0.0;
-    g.defaulted = r.cond.defaulted;
-    g.defaulted_text = measured::defaulted_text(r.cond);
     out.push_back(g);
   }
   return out;

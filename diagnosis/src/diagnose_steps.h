@@ -26,6 +26,10 @@ struct Steps {
   void check_stop() const;
 };
 
+/// How one run's record was read (noise, spikes, initial state, defaulted conditions); the
+/// caller sets the scoring, its reason when it differs, and the burn-in.
+RunReading record_reading(const RunData& r);
+
 /// How every run was read and scored.
 std::vector<RunReading> run_readings(const Problem& P);
 

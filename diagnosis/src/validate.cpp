@@ -18,6 +18,7 @@
 #include "stickslip/diagnosis/detail/diagnose_progress.h"
 #include "stickslip/diagnosis/detail/diagnose_statfit.h"
 #include "stickslip/diagnosis/validation_schema_data.h"
+#include "diagnose_steps.h"
 
 namespace stickslip::diagnosis {
 
@@ -61,20 +62,9 @@ RunData run_data(const measured::MeasuredRun& mr) {
 }
 
 RunReading reading_of(const RunData& r) {
-  RunReading g;
-  g.run = r.name;
+  RunReading g = record_reading(r);
   g.scoring = r.rec.phase_locked ? "time_domain" : "statistics";
-  g.why = r.rec.why;
-  g.noise_sigma = r.rec.noise.sigma;
-  g.noise_rho = r.rec.noise.rho;
-  g.spikes = r.rec.spikes;
-  g.spike_fraction = r.rec.y.empty() ? 0.0 : static_cast<double>(r.rec.spikes) / static_cast<double>(r.rec.y.size());
-  g.preload = r.rec.preload;
-  g.from_rest = r.rec.from_rest;
-  g.stuck_at_start = r.rec.stuck_at_start;
   g.burn_in = r.settle;
-  g.defaulted = r.cond.defaulted;
-  g.defaulted_text = measured::defaulted_text(r.cond);
   return g;
 }
 

@@ -45,15 +45,23 @@ TEST(Extensions, CatalogueIdsAndNames) {
   EXPECT_THROW(extension_from_string("viscosity"), InvalidParameter);
 }
 
+namespace {
+/// set_parameter(c, name, value) throws InvalidParameter for the field `name`, its message
+/// holding the value as `text`.
+void expect_refused_naming(SimConfig& c, const std::string& name, double value, const std::string& text) {
+  try {
+    set_parameter(c, name, value);
+    FAIL() << name << " = " << value << ": no throw";
+  } catch (const InvalidParameter& e) {
+    EXPECT_EQ(e.field(), name);
+    EXPECT_NE(std::string(e.what()).find(text), std::string::npos) << e.what();
+  }
+}
+}  // namespace
+
 TEST(Extensions, BadValuesNameFieldAndValue) {
   SimConfig c;
-  try {
-    set_parameter(c, "waviness_eps", 1.5);
-    FAIL() << "no throw";
-  } catch (const InvalidParameter& e) {
-    EXPECT_EQ(e.field(), "waviness_eps");
-    EXPECT_NE(std::string(e.what()).find("1.5"), std::string::npos) << e.what();
-  }
+  expect_refused_naming(c, "waviness_eps", 1.5, "1.5");
   EXPECT_THROW(set_parameter(c, "sigma2", -1.0), InvalidParameter);
   EXPECT_THROW(set_parameter(c, "dwell_tau", 0.0), InvalidParameter);
   EXPECT_THROW(set_parameter(c, "sensor_zeta", NAN), InvalidParameter);
@@ -79,13 +87,7 @@ TEST(Extensions, BadValuesNameFieldAndValue) {
   EXPECT_DOUBLE_EQ(d.extension.sensor_tau, 1.0 / 500.0);
   // Velocity weakening: beta outside [0, 0.5), a reference velocity <= 0, and a level that the
   // run's own drive velocity would push below the floor.
-  try {
-    set_parameter(d, "vw_beta", 0.5);
-    FAIL() << "no throw";
-  } catch (const InvalidParameter& e) {
-    EXPECT_EQ(e.field(), "vw_beta");
-    EXPECT_NE(std::string(e.what()).find("0.5"), std::string::npos) << e.what();
-  }
+  expect_refused_naming(d, "vw_beta", 0.5, "0.5");
   EXPECT_THROW(set_parameter(d, "vw_v", 0.0), InvalidParameter);
   SimConfig w;
   set_extension(w, "velocity_weakening");
