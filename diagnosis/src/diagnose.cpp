@@ -89,7 +89,7 @@ Diagnosis diagnose(const measured::MeasuredDataset& data, const DiagnoseOptions&
 
   // 1. Calibrate every base model; the best on held-out data is the base.
   std::vector<BaseFit> bases = calibrate_all(st, &d);
-  const int best = choose_base(bases, P.stats);
+  const int best = base_for_causes(st, bases, choose_base(bases, P.stats), &d.base_note);
   BaseFit base = bases[best];
   // 2. Its evidence and uncertainty; 3. the adequacy verdict against trivial predictors.
   SineScan scan;
@@ -99,14 +99,16 @@ Diagnosis diagnose(const measured::MeasuredDataset& data, const DiagnoseOptions&
   // 4. Candidates, tested against the (refitted) base, and the cause: only on an adequate base.
   std::vector<CandFit> cands;
   int cause = -1;
-  if (d.adequacy.verdict == "adequate") {
+  const bool extensible = engine::model_traits(base.cal.model).info->effects;
+  if (d.adequacy.verdict == "adequate" && extensible) {
     cands = fit_candidates(st, base, ev, scan, &d);
     cause = test_and_name(st, &base, &bases[best], &cands, ev, &d);
   } else {
     for (engine::ExtensionKind k : o.candidates) {
       CandidateResult c;
       c.kind = k;
-      c.status = "not tested: the base is inadequate (adequacy.missing)";
+      c.status = d.adequacy.verdict != "adequate" ? "not tested: the base is inadequate (adequacy.missing)"
+                                                  : "not tested: the base takes no catalogue effect (base_note)";
       d.candidates.push_back(c);
     }
   }

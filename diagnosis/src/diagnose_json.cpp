@@ -303,6 +303,7 @@ nlohmann::json to_json(const Diagnosis& d) {
   j["statistics"] = comparisons_json(d.statistics);
   j["models"] = {{"base", calibrated_json(d.base_fit)}, {"extended", calibrated_json(d.extended_fit)}};
   j["base_model"] = to_string(d.base_model);
+  j["base_note"] = d.base_note;
   j["base_params"] = params_json(d.base_params);
   j["cause"] = d.cause;
   j["best_candidate"] = d.best_candidate;

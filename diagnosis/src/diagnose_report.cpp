@@ -105,6 +105,7 @@ void summary_calibrations(const Diagnosis& d, std::ostringstream& s) {
     s << line;
   }
   s << ")\n";
+  if (!d.base_note.empty()) s << "  " << d.base_note << "\n";
 }
 
 void summary_candidates(const Diagnosis& d, std::ostringstream& s) {

@@ -7,6 +7,7 @@
 #include <boost/math/distributions/chi_squared.hpp>
 #include <boost/math/distributions/fisher_f.hpp>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <numeric>
 #include <stdexcept>
@@ -215,6 +216,41 @@ int choose_base(const std::vector<BaseFit>& bases, bool stats) {
         (best < 0 || score(bases[i]) < score(bases[static_cast<std::size_t>(best)])))
       best = static_cast<int>(i);
   return best;
+}
+
+namespace {
+bool takes_effects(const BaseFit& b) { return engine::model_traits(b.cal.model).info->effects; }
+}  // namespace
+
+int base_for_causes(const Steps& st, const std::vector<BaseFit>& bases, int best, std::string* note) {
+  note->clear();
+  const BaseFit& top = bases[static_cast<std::size_t>(best)];
+  if (st.o.candidates.empty() || takes_effects(top)) return best;
+  const bool stats = st.P.stats;
+  std::vector<BaseFit> usable;  // the calibrated bases that take effects, by index in bases
+  std::vector<int> index;
+  for (std::size_t i = 0; i < bases.size(); ++i)
+    if (takes_effects(bases[i])) usable.push_back(bases[i]), index.push_back(static_cast<int>(i));
+  const int u = choose_base(usable, stats);
+  const auto held = [&](const BaseFit& b) {
+    char buf[48];
+    std::snprintf(buf, sizeof buf, stats ? "score %.4g" : "RMSE %.4g N", stats ? b.cal.score_heldout : b.cal.rmse_heldout);
+    return std::string(engine::to_string(b.cal.model)) + " (held-out " + buf + ")";
+  };
+  const std::string top_text = held(top) + " fits best but takes no catalogue effect";
+  if (u < 0) {
+    *note = top_text + ", and no calibrated base that does: no candidate is tested";
+    return best;
+  }
+  const BaseFit& alt = usable[static_cast<std::size_t>(u)];
+  const std::string alt_text = held(alt);
+  const Adequacy a = judge_adequacy(st.Ps, alt, compare_stats(st.Ps, alt.stats, nullptr));
+  if (a.verdict != "adequate") {
+    *note = top_text + "; the best that does, " + alt_text + ", is inadequate: no candidate is tested";
+    return best;
+  }
+  *note = top_text + "; the candidates are tested on the best base that does, " + alt_text;
+  return index[static_cast<std::size_t>(u)];
 }
 
 Evidence describe_base(const Steps& st, BaseFit* base, std::vector<BaseFit>* bases, int best,

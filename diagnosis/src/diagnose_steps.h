@@ -40,6 +40,14 @@ std::vector<BaseFit> calibrate_all(const Steps& st, Diagnosis* d);
 /// The best calibrated base: lowest held-out RMSE (time domain) or statistics score.
 int choose_base(const std::vector<BaseFit>& bases, bool stats);
 
+/// The base the diagnosis is built on, given the best calibrated one (`best`). Candidates are
+/// catalogue effects, and a model without them (engine::ModelInfo::effects: rate_state, gms)
+/// cannot carry one. When candidates are asked for and the best base is such a model, the base
+/// is the best one that takes effects, provided it is adequate; `note` then says so, with both
+/// held-out scores. Otherwise the best, and `note` says why no candidate can be tested (empty
+/// when the best takes effects or no candidate is asked for).
+int base_for_causes(const Steps& st, const std::vector<BaseFit>& bases, int best, std::string* note);
+
 /// Step 2: the base's residual evidence (time domain; empty in statistics) and its parameters
 /// with standard errors, Jacobian rank and condition; the other bases' parameters.
 Evidence describe_base(const Steps& st, BaseFit* base, std::vector<BaseFit>* bases, int best,

@@ -180,6 +180,7 @@ TEST(DiagnoseReport, DriftDiagnosisReportsWholeRunsEvidenceSchemaAndPlots) {
   DiagnoseOptions o = hidden_case_options(SuiteDatasets::kCi);
   o.candidates = {engine::ExtensionKind::kDrift};
   const Diagnosis d = diagnose(data, o);
+  EXPECT_EQ(d.base_note, "");  // lugre, the base, takes effects
   {
     SCOPED_TRACE("conditions taken from the seed are reported per run");
     ASSERT_EQ(d.readings.size(), 2u);

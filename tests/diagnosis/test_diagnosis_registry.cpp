@@ -10,8 +10,10 @@
 #include "stickslip/diagnosis/detail/diagnose_fit.h"
 #include "stickslip/diagnosis/detail/diagnose_scale.h"
 #include "stickslip/diagnosis/diagnose.h"
+#include "stickslip/diagnosis/diagnose_suite.h"
 #include "stickslip/diagnosis/diagnosis_request.h"
 #include "stickslip/engine/registry.h"
+#include "stickslip/measured/synth.h"
 
 namespace stickslip::diagnosis {
 namespace {
@@ -22,6 +24,55 @@ json model_ids() {
   json out = json::array();
   for (const engine::ModelTraits& t : engine::all_model_traits()) out.push_back(t.info->name);
   return out;
+}
+
+const BaseCalibration* calibration_of(const Diagnosis& d, engine::ModelKind m) {
+  for (const BaseCalibration& c : d.calibrations)
+    if (c.model == m) return &c;
+  return nullptr;
+}
+
+// A base model that takes no catalogue effect (ModelInfo::effects false: gms) cannot carry a
+// candidate. Alone, it is the base, and the candidate is "not tested" with a note that names it
+// (not a failed simulation). Beside lugre, on data that gms fits best (made by gms itself;
+// checked below), the candidates run on lugre and are fitted; the note gives both held-out
+// scores.
+TEST(DiagnosisRegistry, CandidatesRunOnTheBestBaseThatTakesEffects) {
+  const engine::ModelKind gms = engine::model_from_string("gms");
+  const engine::ModelKind lugre = engine::model_from_string("lugre");
+  ASSERT_FALSE(engine::model_traits(gms).info->effects);
+  ASSERT_TRUE(engine::model_traits(lugre).info->effects);
+  measured::SynthOptions made = hidden_case_dataset(hidden_case("clean_white"), 1000, SuiteDatasets::kCi);
+  made.model = engine::SimConfig::seed(gms, 0.0);
+  const measured::MeasuredDataset data = measured::synthesize(made);
+  DiagnoseOptions o = hidden_case_options(SuiteDatasets::kCi);
+  o.candidates = {engine::ExtensionKind::kDrift};
+  o.whole_run_holdout = false;
+
+  o.models = {gms};
+  const Diagnosis alone = diagnose(data, o);
+  EXPECT_EQ(alone.base_model, gms);
+  EXPECT_EQ(alone.cause, "none");
+  ASSERT_EQ(alone.candidates.size(), 1u);
+  EXPECT_EQ(alone.candidates[0].status, "not tested: the base takes no catalogue effect (base_note)");
+  EXPECT_NE(alone.base_note.find("gms (held-out RMSE"), std::string::npos) << alone.base_note;
+  EXPECT_NE(alone.base_note.find("no calibrated base that does"), std::string::npos) << alone.base_note;
+  EXPECT_EQ(to_json(alone)["base_note"], alone.base_note);
+
+  o.models = {gms, lugre};
+  const Diagnosis both = diagnose(data, o);
+  const BaseCalibration* g = calibration_of(both, gms);
+  const BaseCalibration* l = calibration_of(both, lugre);
+  ASSERT_TRUE(g && l);
+  ASSERT_LT(g->rmse_heldout, l->rmse_heldout) << "the premise: gms fits this dataset best";
+  EXPECT_EQ(both.base_model, lugre) << summary_text(both);
+  EXPECT_NE(both.base_note.find("tested on the best base that does, lugre (held-out RMSE"), std::string::npos)
+      << both.base_note;
+  ASSERT_EQ(both.candidates.size(), 1u);
+  EXPECT_EQ(both.candidates[0].status, "ok") << summary_text(both);
+  EXPECT_EQ(both.cause, "none") << summary_text(both);  // gms's data have no drift
+  EXPECT_NE(summary_text(both).find(both.base_note), std::string::npos);
+
 }
 
 TEST(DiagnosisRegistry, SchemasListTheRegisteredModels) {

@@ -298,6 +298,9 @@ struct Diagnosis {
   std::vector<StatsComparison> statistics;
   CalibratedModel base_fit, extended_fit;  ///< extended_fit = base_fit when the cause is none
   engine::ModelKind base_model = engine::model_kind<engine::LuGre>;
+  /// Why the base is not the best calibrated model, or why no candidate could be tested on it
+  /// (the best takes no catalogue effect); empty otherwise.
+  std::string base_note;
   std::vector<ParamEstimate> base_params;
   std::string cause = "none";
   std::string best_candidate;  ///< lowest held-out RMSE, significant or not

@@ -12,7 +12,7 @@ const POLL_MS = 2000;
 const ACTIVE = new Set(["queued", "running"]);
 const OVERVIEW_POINTS = 4000;
 // Keys of diagnosis.json this page lays out itself; any other key is shown under "Further results".
-const KNOWN = new Set(["dataset", "base_model", "base_params", "cause", "best_candidate", "rmse_base_heldout", "rmse_extended_heldout", "gain", "candidates", "evidence", "calibrations", "heldout_runs", "method", "seconds", "evaluations", "verdict"]);
+const KNOWN = new Set(["dataset", "base_model", "base_note", "base_params", "cause", "best_candidate", "rmse_base_heldout", "rmse_extended_heldout", "gain", "candidates", "evidence", "calibrations", "heldout_runs", "method", "seconds", "evaluations", "verdict"]);
 
 const EVIDENCE_PANELS = [
   { view: "velocity", title: "Residual vs sliding velocity", xLabel: "x' [mm/s]", scale: 1e3, y: "mean residual [N]" },
@@ -121,7 +121,7 @@ function verdictCard(r) {
     r.verdict !== undefined ? h("p", { id: "verdict-text" }, typeof r.verdict === "string" ? r.verdict : JSON.stringify(r.verdict)) : null,
     kv([
       ["dataset", r.dataset],
-      ["base model", r.base_model],
+      ["base model", r.base_note ? r.base_model + " (" + r.base_note + ")" : r.base_model],
       ["held-out RMSE, base → extended", num(r.rmse_base_heldout) + " → " + num(r.rmse_extended_heldout) + " N (gain " + gain + ")"],
       ["best candidate", r.best_candidate || "–"],
       ["evaluations", r.evaluations + " in " + num(r.seconds, 3) + " s"],
@@ -134,7 +134,7 @@ function calibrationCard(r) {
   const runs = [];
   for (const c of cals) for (const k of Object.keys(c.rmse_run || {})) if (!runs.includes(k)) runs.push(k);
   const columns = [
-    { label: "model", get: (c) => (c.model === r.base_model ? h("strong", null, c.model + " (best)") : c.model) },
+    { label: "model", get: (c) => (c.model === r.base_model ? h("strong", null, c.model + " (base)") : c.model) },
     ...runs.map((run) => ({ label: run + " [N]", num: true, get: (c) => num((c.rmse_run || {})[run]) })),
     { label: "fit RMSE [N]", num: true, get: (c) => num(c.rmse_fit) },
     { label: "held-out RMSE [N]", num: true, get: (c) => num(c.rmse_heldout) },
