@@ -5,8 +5,11 @@
 //   2. peak RSS of a 10,000-run study with traces off, sampled while it runs, against a
 //      1,000-run study: memory must not grow with the number of runs;
 //   3. convergence of the paper map's metrics: its own tolerance (studies/paper-map.json) against
-//      rtol = atol = 1e-10 on every 5th va_over_vd column.
-// Usage: study_bench [--skip-map] [--skip-memory] [--skip-convergence]
+//      rtol = atol = 1e-10 on every 5th va_over_vd column;
+//   4. parsing and validating a list design of 12,500 to 100,000 points (the request the server
+//      checks before it answers 202): the time per point must stay flat (a quadratic check,
+//      issue 18 defect 4, grew it 8x over this range: 100,001 points took 3 s).
+// Usage: study_bench [--skip-map] [--skip-memory] [--skip-convergence] [--skip-parse]
 #include <sys/resource.h>
 
 #include <algorithm>
@@ -144,20 +147,48 @@ void convergence(const fs::path& tmp) {
               where_amp.c_str(), worst_mean, where_mean.c_str());
 }
 
+// 4. A list design of n empty points (every point takes the spec's defaults), as the server's
+// POST /v1/studies receives it; the fastest of three parses per size.
+void list_design_parse() {
+  std::printf("list design: parse and validate (fastest of 3)\n%10s %12s %16s %8s\n", "points", "time[s]",
+              "per point[us]", "ratio");
+  double first = 0;
+  for (int n : {12500, 25000, 50000, 100000}) {  // 100,000: the default run limit
+    std::string points;
+    for (int i = 0; i < n; ++i) points += i ? ",{}" : "{}";
+    const std::string text = R"({"name": "big", "stages": [{"duration": 0.1}], )"
+                             R"("design": {"type": "list", "points": [)" + points + "]}}";
+    double best = 1e300;
+    for (int rep = 0; rep < 3; ++rep) {
+      const auto t0 = std::chrono::steady_clock::now();
+      const studies::StudySpec spec = parse_or_die(text);
+      best = std::min(best, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+      if (spec.name() != "big") std::exit(1);
+    }
+    const double per = best / n * 1e6;
+    if (first == 0) first = per;
+    std::printf("%10d %12.4f %16.3f %8.2f\n", n, best, per, per / first);
+  }
+  std::printf("ratio: time per point against 12,500 points (1 = linear; a quadratic check gives 8 at 100,000)\n");
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   bool map = true, mem = true, conv = true;
-  CLI::App app{"Study benchmarks: the paper map, memory, convergence"};
+  CLI::App app{"Study benchmarks: the paper map, memory, convergence, list-design parsing"};
   app.add_flag("!--skip-map", map, "skip the paper map");
   app.add_flag("!--skip-memory", mem, "skip the memory measurement");
   app.add_flag("!--skip-convergence", conv, "skip the convergence table");
+  bool parse = true;
+  app.add_flag("!--skip-parse", parse, "skip the list-design parse scaling");
   CLI11_PARSE(app, argc, argv);
   const fs::path tmp = fs::temp_directory_path() / ("stickslip-bench-" + std::to_string(getpid()));
   fs::create_directories(tmp);
   if (mem) memory(tmp);  // first, so the peak RSS is not inflated by the larger studies
   if (map) paper_map(tmp);
   if (conv) convergence(tmp);
+  if (parse) list_design_parse();
   fs::remove_all(tmp);
   return 0;
 }
