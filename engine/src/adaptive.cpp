@@ -77,7 +77,7 @@ struct SmoothSys {
   }
   static constexpr bool kEvents = false;
   /// v_r reverses inside the step: the kink of |v_r| and the Stribeck bump (width ~v_s) sit
-  /// there, see the step limiter in adaptive().
+  /// there, see reversal_limited_step.
   static constexpr bool kReversals = true;
   double event(const Plant&, double, const State&, Mode, Mode*) const noexcept { return 1.0; }
   Mode start_mode(const Plant&, double, State&) const noexcept { return 0; }
@@ -253,7 +253,7 @@ StepOut dp5_step(const Sys& sys, const Plant& p, double t, const State& y, const
 // step but takes 20 % more steps at a given rtol; beta = 0.13 stalls (tiny steps).
 constexpr double kBeta = 0.04;
 // lambda h from which the step uses the integrating factor (below: plain Dormand-Prince).
-// With the factor applied to the deviation from the quasi-steady strain (see adaptive()),
+// With the factor applied to the deviation from the quasi-steady strain (see lawson_factor),
 // measured on the 20 s LuGre runs at rtol 1e-4 .. 3e-4: 1 takes ~10 % fewer steps at 4 mm/s
 // than 3 (the old value, chosen when the factor acted on s itself) at the same errors; 0.5 and
 // 0.25 take a few % fewer steps still, with less regular errors.
@@ -286,267 +286,252 @@ DenseStep<State> make_dense(const State& y0, const State& y1,
   else return DenseStep<State>(y0, y1, k, h);
 }
 
+/// adaptive()'s state within one stage, carried from step to step (y and the step size h are
+/// carried by drive_stages, also between the stages).
+template <class Sys>
+struct StageLoop {
+  double t;                 ///< time reached [s]
+  typename Sys::Mode mode;  ///< a switching system's mode (0 for a smooth one)
+  typename Sys::Deriv k1;   ///< f(t, y): the first stage of the next step (FSAL)
+  int zero_switches = 0;    ///< zero-length switches in a row
+  double theta = 0.0;       ///< reversal position in the cut step (low-discrepancy sequence)
+  double h_rev = 0.0;       ///< step proposed after the last accepted reversal step (0: none yet)
+  BaseAtStages base;        ///< base motion at the stage times (smooth models)
+  std::array<typename Sys::State, kStages> kst;  ///< stages of the last step (dense output)
+  double log_err_prev = kLogErrFloor;  ///< PI controller memory: log of Hairer's initial 1e-4
+  bool rejected_last = false;          ///< the last attempted step was rejected
+
+  StageLoop(const Sys& sys, const Plant& p, double t0, typename Sys::State& y)
+      : t(t0), mode(sys.start_mode(p, t0, y)), k1(sys.eval(p, t0, y, mode)) {}
+};
+
+#include "adaptive_switch.inc"  // (inside this anonymous namespace): locate_in_step
+
+/// The stage metrics and the trace at an accepted time t [s]: the forces of d, the state y.
+template <class Sys>
+inline void record_sample(RunContext& ctx, StageAccumulator& acc, const Sys& sys, double t,
+                          const typename Sys::Deriv& d, const typename Sys::State& y) {
+  acc.sample(t, d.F_d, d.F_f);
+  const auto& model = sys.base_model();
+  if constexpr (HasPrimaryState<std::remove_cvref_t<decltype(model)>>) {
+    if (ctx.trace.active()) ctx.trace.add({t, d.F_d, d.F_f, y.x, y.v, primary_state(model, y)});
+  } else {
+    if (ctx.trace.active()) ctx.trace.add({t, d.F_d, d.F_f, y.x, y.v, y.s});
+  }
+}
+
+/// The step to try from s.t [s]: h, or shorter where v_r reverses inside it (Sys::kReversals;
+/// starts s.base at s.t and sets vr0, v_r there [m/s]).
+template <class Sys>
+inline double reversal_limited_step(const Plant& p, const typename Sys::State& y, double h,
+                                    StageLoop<Sys>& s, double& vr0) {
+  double h_try = h;
+  if constexpr (Sys::kReversals) {
+    // Reversal step limiter. Where v_r changes sign, |v_r| has a kink and the Stribeck
+    // factor exp(-(v_r/v_s)^2) a bump ~v_s / |v_r'| wide (~9 us at 4 mm/s, 1.5 kHz): a step
+    // across it needs to be ~5x shorter than the steps just before, where the bristle is
+    // saturated and the error estimate is small. The controller learnt that anew at every
+    // reversal through 2-4 rejected steps (24 % of all attempts at 4 mm/s, err up to 100).
+    // Linear extrapolation of v_r tells whether the next reversal falls inside the step; if
+    // so the step is cut to h_rev, the controller's proposal after the previous accepted
+    // reversal step (so it follows the tolerance). Measured on the 20 s LuGre run at 4 mm/s
+    // (rtol 1e-4 .. 3e-4): rejections 160k -> 60k, and the F_d error 2e-4 N or less at every
+    // rtol instead of 3e-4 .. 4e-3 N. The error is a bias of the mean friction from the
+    // velocity error of the reversal steps (it appears during the first second of
+    // vibration and then stays constant); placing the reversal in the MIDDLE of every cut
+    // step made that error systematic (up to 3.9e-3 N at rtol 2.5e-4), ending steps AT the
+    // predicted reversal was 5 % cheaper but less regular (7e-5 .. 6e-4 N).
+    s.base.start(p, s.t);
+    vr0 = y.v - s.base.ub[0];
+    const double ar0 = s.k1.d.v - s.base.ab0;
+    if (vr0 * ar0 < 0.0) {
+      const double t_c = -vr0 / ar0;  // time to the reversal [s]
+      if (t_c < h_try && s.h_rev > 0.0) {
+        if (t_c > 2.0 * s.h_rev) {
+          // Approach step: end the step (0.05 .. 0.95) h_rev before the predicted reversal,
+          // the position taken from a golden-ratio sequence so that it is spread evenly
+          // over the steps that then contain the reversal. Before, the approach ran in
+          // steps of h_rev (4-5 per reversal, err ~1e-6); at 4 mm/s and rtol 3e-4 this
+          // cut 430k -> 360k attempts for 2.6e-4 -> 3.7e-4 N. At most 0.6 of the
+          // controller's step: the approach runs into the reversal, where the step the
+          // controller learnt away from it fails (err ~6, one rejection per reversal);
+          // 0.6 gave 385k -> 371k attempts and 3.7e-4 -> 2.8e-4 N (0.5, 0.75: no better).
+          s.theta += kGoldenFrac;
+          if (s.theta >= 1.0) s.theta -= 1.0;
+          h_try = std::min(t_c - (0.05 + 0.9 * s.theta) * s.h_rev, 0.6 * h_try);
+        } else {
+          h_try = std::min(h_try, s.h_rev);
+        }
+      }
+    }
+  }
+  return h_try;
+}
+
+/// A step's integrating factor: its rate L [1/s] (0: plain Dormand-Prince) and the strain s_eq
+/// about which it acts.
+struct LawsonFactor {
+  double L = 0.0, s_eq = 0.0;
+};
+
+/// The integrating factor of the step [s.t, s.t + hh] from y (vr0: v_r at s.t [m/s]); s.base
+/// gets the step's stage times (Sys::kReversals; smooth systems have no factor otherwise).
+template <class Sys>
+inline LawsonFactor lawson_factor(const Sys& sys, const Plant& p, const typename Sys::State& y,
+                                  double hh, double vr0, StageLoop<Sys>& s) {
+  // Integrating factor only where the bristle equation is stiff for this step. Where
+  // lambda h < kLawsonMin plain Dormand-Prince is stable, and far more accurate: the
+  // Lawson scheme is exact only for a constant lambda, and lambda ~ |v_r| sweeps from 0 to
+  // ~4e4 1/s within a step around every zero of v_r under vibration. Always-on, it left a
+  // systematic error per v_r crossing that the error estimate did not see: 7.7e-4 N RMS at
+  // rtol 1e-6 on the 20 s LuGre run at v_a = 4 mm/s, 2e-6 N with this rule (same work).
+  // Keep exp(-L h) well inside double range; never binding for physical parameters.
+  //
+  // The factor acts on the deviation of s from s_eq = v_r0 / lambda_0, the strain at which
+  // s' = v_r - lambda s vanishes at the step start (sgn(v_r) g(v_r)). On s itself, Lawson's
+  // scheme integrates exp(L tau) times the forcing v_r, which polynomials fit badly when
+  // L h >> 1: during the still base's slips (s at its steady value, lambda h ~ 5-15) every
+  // such step was rejected (err 2-66), 3 rejections for every 2 accepted plain steps at
+  // lambda h < 3, 25 % of all attempts. About s_eq the forcing is ~0 and the steps pass:
+  // still base, rtol 3e-4: 251k steps + 86k rejections -> 200k + 80 (dt_max-limited).
+  LawsonFactor f;
+  if constexpr (Sys::kReversals) {
+    s.base.stages(p, s.t, hh);
+    const double lam = sys.lambda_ub(y, s.base.ub[0]);
+    f.L = std::min(lam, 600.0 / hh);
+    if (f.L * hh < kLawsonMin) f.L = 0.0;
+    if constexpr (Sys::kOwnSeq) {
+      if (f.L > 0.0) f.s_eq = sys.own_s_eq(vr0, lam);
+    } else {
+      if (f.L > 0.0) f.s_eq = vr0 / lam;
+    }
+  }
+  return f;
+}
+
+/// A rejected step of length hh [s] with the error err: h [s] becomes the shorter step to try.
+/// False when that is too short (the run diverged; ctx filled).
+template <class Sys>
+inline bool reject_step(RunContext& ctx, const Plant& p, StageLoop<Sys>& s,
+                        const typename Sys::State& y, double err, double hh, double& h) {
+  ++ctx.result.rejected;
+  s.rejected_last = true;
+  const double fac = std::isfinite(err) ? 0.9 * std::pow(err, -kAlpha) : 0.1;
+  h = hh * std::clamp(fac, 0.1, 0.9);
+  if (h < 1e-14 * std::max(1.0, s.t)) {
+    fail_diverged(ctx, s.t, y, p.base_velocity(s.t), h);
+    return false;
+  }
+  return true;
+}
+
+/// The step [s] after an accepted step of length hh [s] with the error err, at most dt_max.
+/// PI step-size control (Gustafsson 1991; Hairer, Norsett & Wanner, Solving ODEs I,
+/// IV.2 / dopri5): h_new = h 0.9 err^-alpha err_prev^beta, no growth right after a rejection.
+/// One log and one exp instead of two pow (pow was 8 % of the run time, perf).
+template <class Sys>
+inline double pi_step(StageLoop<Sys>& s, double err, double hh, double dt_max) {
+  const double log_err = std::log(std::max(err, 1e-10));
+  double fac = 0.9 * std::exp(kBeta * s.log_err_prev - kAlpha * log_err);
+  fac = std::clamp(fac, 0.2, s.rejected_last ? 1.0 : 5.0);
+  s.log_err_prev = std::max(log_err, kLogErrFloor);
+  s.rejected_last = false;
+  return std::min(hh * fac, dt_max);
+}
+
+/// A switching system after the accepted step out of length hh [s] from (s.t, y) with the
+/// integrating-factor rate L: where its event fired inside, the step is cut to the switch (out
+/// becomes the step to it, y its state, its old mode's forces recorded) and the new mode is
+/// entered. Returns the time the step reached [s].
+template <class Sys, class StepOut>
+inline double take_switch(RunContext& ctx, StageAccumulator& acc, const Sys& sys,
+                          const ErrorScaleT<typename Sys::State>& es, const Plant& p,
+                          StageLoop<Sys>& s, typename Sys::State& y, StepOut& out, double hh,
+                          double L) {
+  double t_new = s.t + hh;
+  typename Sys::Mode next{};
+  // A run of zero-length switches means the modes disagree at a tangency; classify from
+  // the state instead and take the step as computed, which always makes progress.
+  if (s.zero_switches > 8) {
+    s.zero_switches = 0;
+    s.mode = sys.start_mode(p, t_new, out.y);
+    out.k_end = sys.eval(p, t_new, out.y, s.mode);
+  } else if (const double fh = event_at_end(sys, p, s.base, t_new, out.y, s.mode, &next);
+             fh < 0.0) {
+    const SwitchSearch<Sys> q(sys, p, es, s, y, out, hh, L, fh);
+    StepOut ob;
+    const double b = locate_in_step(q, ob);
+    sys.event(p, s.t + b, ob.y, s.mode, &next);
+    out = ob;
+    t_new = (b == hh) ? t_new : s.t + b;
+    y = out.y;
+    record_sample(ctx, acc, sys, t_new, out.k_end, y);  // the old mode's forces (F_f jumps)
+    s.mode = sys.enter(s.mode, next, p, t_new, y);
+    out.y = y;  // keep the projection onto the new mode's set (on_enter)
+    out.k_end = sys.eval(p, t_new, y, s.mode);
+    ++ctx.result.switches;
+    s.zero_switches = b < 1e-9 * hh ? s.zero_switches + 1 : 0;
+  }
+  return t_new;
+}
+
+/// One stage [t0, t1] [s] of adaptive(): steps from y with the step size h, both carried on.
+/// False when the run diverged (ctx filled).
+template <class Sys>
+inline bool adaptive_stage(RunContext& ctx, const Sys& sys,
+                           const ErrorScaleT<typename Sys::State>& es, const Plant& p, double t0,
+                           double t1, StageAccumulator& acc, typename Sys::State& y, double& h) {
+  using StepOut = StepOutT<typename Sys::State>;
+  const IntegratorOptions& opt = ctx.cfg.integrator;
+  StageLoop<Sys> s(sys, p, t0, y);
+  record_sample(ctx, acc, sys, s.t, s.k1, y);
+  while (s.t < t1) {
+    if (static_cast<double>(ctx.result.steps + ctx.result.rejected) > opt.max_steps) {
+      ctx.result.status = RunStatus::kDiverged;
+      ctx.result.t_end = s.t;
+      ctx.result.reason = "step limit reached at t = " + std::to_string(s.t) + " s";
+      return false;
+    }
+    double vr0 = 0.0;  // v_r at the step start [m/s] (Sys::kReversals)
+    const double h_try = reversal_limited_step(p, y, h, s, vr0);
+    const bool last = s.t + h_try >= t1 * (1.0 - 1e-15) - 1e-15;
+    const double hh = last ? t1 - s.t : h_try;
+    const LawsonFactor f = lawson_factor(sys, p, y, hh, vr0, s);
+    StepOut out = dp5_step(sys, p, s.t, y, s.k1, hh, s.mode, f.L, es, &s.base,
+                           Sys::kEvents ? &s.kst : nullptr, f.s_eq);
+    if (!(out.err <= 1.0)) {  // also catches NaN
+      if (!reject_step(ctx, p, s, y, out.err, hh, h)) return false;
+      continue;
+    }
+    double t_new = s.t + hh;
+    if constexpr (Sys::kEvents) t_new = take_switch(ctx, acc, sys, es, p, s, y, out, hh, f.L);
+    y = out.y;
+    s.t = t_new;
+    s.k1 = out.k_end;
+    if (after_step(p, s.t, y)) s.k1 = sys.eval(p, s.t, y, s.mode);  // dwell_time's clock restarted
+    ++ctx.result.steps;
+    if (!ctx.guard.ok(y)) {
+      fail_diverged(ctx, s.t, y, p.base_velocity(s.t), hh);
+      return false;
+    }
+    record_sample(ctx, acc, sys, s.t, s.k1, y);
+    h = pi_step(s, out.err, hh, opt.dt_max);
+    if constexpr (Sys::kReversals) {
+      if (vr0 * (y.v - s.base.ub[kStages - 1]) <= 0.0) s.h_rev = h;  // this step reversed v_r
+    }
+    if (last) s.t = t1;
+  }
+  return true;
+}
+
 /// y: the state at t = 0 (the model's initial_state).
 template <class Sys>
 void adaptive(RunContext& ctx, const Sys& sys, const ErrorScaleT<typename Sys::State>& es,
               typename Sys::State y) {
-  using State = typename Sys::State;
-  using Deriv = typename Sys::Deriv;
-  using StepOut = StepOutT<State>;
   const IntegratorOptions& opt = ctx.cfg.integrator;
   double h = std::min(opt.dt, opt.dt_max);
-  const auto& model = sys.base_model();
-  constexpr bool kPrimaryHook = HasPrimaryState<std::remove_cvref_t<decltype(model)>>;
   drive_stages(ctx, y, &h, [&](const Plant& p, double t0, double t1, StageAccumulator& acc) {
-    double t = t0;
-    typename Sys::Mode mode = sys.start_mode(p, t, y);
-    Deriv k1 = sys.eval(p, t, y, mode);
-    auto record = [&](double tt, const Deriv& d) {
-      acc.sample(tt, d.F_d, d.F_f);
-      if constexpr (kPrimaryHook) {
-        if (ctx.trace.active())
-          ctx.trace.add({tt, d.F_d, d.F_f, y.x, y.v, primary_state(model, y)});
-      } else {
-        if (ctx.trace.active()) ctx.trace.add({tt, d.F_d, d.F_f, y.x, y.v, y.s});
-      }
-    };
-    record(t, k1);
-    int zero_switches = 0;
-    double theta = 0.0;  // reversal position in the cut step (low-discrepancy sequence)
-    double h_rev = 0.0;  // step proposed after the last accepted reversal step (0: none yet)
-    BaseAtStages base;   // base motion at the stage times (smooth models)
-    std::array<State, kStages> kst;  // stages of the last step (switching models' dense output)
-    double log_err_prev = kLogErrFloor;  // PI controller memory: log of Hairer's initial 1e-4
-    bool rejected_last = false;
-    while (t < t1) {
-      if (static_cast<double>(ctx.result.steps + ctx.result.rejected) > opt.max_steps) {
-        ctx.result.status = RunStatus::kDiverged;
-        ctx.result.t_end = t;
-        ctx.result.reason = "step limit reached at t = " + std::to_string(t) + " s";
-        return false;
-      }
-      double h_try = h;
-      double vr0 = 0.0;
-      if constexpr (Sys::kReversals) {
-        // Reversal step limiter. Where v_r changes sign, |v_r| has a kink and the Stribeck
-        // factor exp(-(v_r/v_s)^2) a bump ~v_s / |v_r'| wide (~9 us at 4 mm/s, 1.5 kHz): a step
-        // across it needs to be ~5x shorter than the steps just before, where the bristle is
-        // saturated and the error estimate is small. The controller learnt that anew at every
-        // reversal through 2-4 rejected steps (24 % of all attempts at 4 mm/s, err up to 100).
-        // Linear extrapolation of v_r tells whether the next reversal falls inside the step; if
-        // so the step is cut to h_rev, the controller's proposal after the previous accepted
-        // reversal step (so it follows the tolerance). Measured on the 20 s LuGre run at 4 mm/s
-        // (rtol 1e-4 .. 3e-4): rejections 160k -> 60k, and the F_d error 2e-4 N or less at every
-        // rtol instead of 3e-4 .. 4e-3 N. The error is a bias of the mean friction from the
-        // velocity error of the reversal steps (it appears during the first second of
-        // vibration and then stays constant); placing the reversal in the MIDDLE of every cut
-        // step made that error systematic (up to 3.9e-3 N at rtol 2.5e-4), ending steps AT the
-        // predicted reversal was 5 % cheaper but less regular (7e-5 .. 6e-4 N).
-        base.start(p, t);
-        vr0 = y.v - base.ub[0];
-        const double ar0 = k1.d.v - base.ab0;
-        if (vr0 * ar0 < 0.0) {
-          const double t_c = -vr0 / ar0;  // time to the reversal [s]
-          if (t_c < h_try && h_rev > 0.0) {
-            if (t_c > 2.0 * h_rev) {
-              // Approach step: end the step (0.05 .. 0.95) h_rev before the predicted reversal,
-              // the position taken from a golden-ratio sequence so that it is spread evenly
-              // over the steps that then contain the reversal. Before, the approach ran in
-              // steps of h_rev (4-5 per reversal, err ~1e-6); at 4 mm/s and rtol 3e-4 this
-              // cut 430k -> 360k attempts for 2.6e-4 -> 3.7e-4 N. At most 0.6 of the
-              // controller's step: the approach runs into the reversal, where the step the
-              // controller learnt away from it fails (err ~6, one rejection per reversal);
-              // 0.6 gave 385k -> 371k attempts and 3.7e-4 -> 2.8e-4 N (0.5, 0.75: no better).
-              theta += kGoldenFrac;
-              if (theta >= 1.0) theta -= 1.0;
-              h_try = std::min(t_c - (0.05 + 0.9 * theta) * h_rev, 0.6 * h_try);
-            } else {
-              h_try = std::min(h_try, h_rev);
-            }
-          }
-        }
-      }
-      const bool last = t + h_try >= t1 * (1.0 - 1e-15) - 1e-15;
-      const double hh = last ? t1 - t : h_try;
-      // Integrating factor only where the bristle equation is stiff for this step. Where
-      // lambda h < kLawsonMin plain Dormand-Prince is stable, and far more accurate: the
-      // Lawson scheme is exact only for a constant lambda, and lambda ~ |v_r| sweeps from 0 to
-      // ~4e4 1/s within a step around every zero of v_r under vibration. Always-on, it left a
-      // systematic error per v_r crossing that the error estimate did not see: 7.7e-4 N RMS at
-      // rtol 1e-6 on the 20 s LuGre run at v_a = 4 mm/s, 2e-6 N with this rule (same work).
-      // Keep exp(-L h) well inside double range; never binding for physical parameters.
-      //
-      // The factor acts on the deviation of s from s_eq = v_r0 / lambda_0, the strain at which
-      // s' = v_r - lambda s vanishes at the step start (sgn(v_r) g(v_r)). On s itself, Lawson's
-      // scheme integrates exp(L tau) times the forcing v_r, which polynomials fit badly when
-      // L h >> 1: during the still base's slips (s at its steady value, lambda h ~ 5-15) every
-      // such step was rejected (err 2-66), 3 rejections for every 2 accepted plain steps at
-      // lambda h < 3, 25 % of all attempts. About s_eq the forcing is ~0 and the steps pass:
-      // still base, rtol 3e-4: 251k steps + 86k rejections -> 200k + 80 (dt_max-limited).
-      double L = 0.0, s_eq = 0.0;
-      if constexpr (Sys::kReversals) {
-        base.stages(p, t, hh);
-        const double lam = sys.lambda_ub(y, base.ub[0]);
-        L = std::min(lam, 600.0 / hh);
-        if (L * hh < kLawsonMin) L = 0.0;
-        if constexpr (Sys::kOwnSeq) {
-          if (L > 0.0) s_eq = sys.own_s_eq(vr0, lam);
-        } else {
-          if (L > 0.0) s_eq = vr0 / lam;
-        }
-      }
-      StepOut out = dp5_step(sys, p, t, y, k1, hh, mode, L, es, &base,
-                             Sys::kEvents ? &kst : nullptr, s_eq);
-      if (!(out.err <= 1.0)) {  // also catches NaN
-        ++ctx.result.rejected;
-        rejected_last = true;
-        const double fac = std::isfinite(out.err) ? 0.9 * std::pow(out.err, -kAlpha) : 0.1;
-        h = hh * std::clamp(fac, 0.1, 0.9);
-        if (h < 1e-14 * std::max(1.0, t)) {
-          fail_diverged(ctx, t, y, p.base_velocity(t), h);
-          return false;
-        }
-        continue;
-      }
-      double t_new = t + hh;
-      if constexpr (Sys::kEvents) {
-        typename Sys::Mode next{};
-        // A run of zero-length switches means the modes disagree at a tangency; classify from
-        // the state instead and take the step as computed, which always makes progress.
-        if (zero_switches > 8) {
-          zero_switches = 0;
-          mode = sys.start_mode(p, t_new, out.y);
-          out.k_end = sys.eval(p, t_new, out.y, mode);
-        } else if (const double fh = event_at_end(sys, p, base, t_new, out.y, mode, &next);
-                   fh < 0.0) {
-          typename Sys::Mode dummy{};
-          const double f0 = sys.event(p, t, y, mode, &dummy);
-          // A step of length b from t (the base at its stages by angle addition where kept).
-          auto redo = [&](double len) {
-            if constexpr (Sys::kReversals) {
-              BaseAtStages bb = base;
-              bb.stages(p, t, len);
-              return dp5_step(sys, p, t, y, k1, len, mode, L, es, &bb);
-            } else {
-              return dp5_step(sys, p, t, y, k1, len, mode, L, es);
-            }
-          };
-          // The switch is located on the step's continuous extension (no right-hand-side
-          // evaluations; re-integrating the step for every trial point cost ~20 steps per
-          // switch, 80 % of the Karnopp run at 4 mm/s), then the step is taken to it. The
-          // extension's error (~ the local error) can put that point a hair before the event
-          // of the real step fires; a secant from there moves it past, and if that fails too
-          // the switch is located on real steps as before.
-          const DenseStep<State> dense = make_dense(y, out.y, kst, hh, es);
-          const BaseInStep bis(p, t, hh);
-          auto yd_event = [&](double th) {
-            const State o = dense.at(th / hh);
-            return sys.event_at(bis.point(p, t + th, th, o), o, mode, &dummy);
-          };
-          State yd = out.y;
-          // GMS (kReversals): to 1e-7 h on the extension, whose own error is larger; the
-          // real step to the point is checked below (~14 fewer event evaluations per switch).
-          double b = locate_switch(
-              f0, hh, fh, yd,
-              [&](double th, State& o) {
-                o = dense.at(th / hh);
-                return sys.event_at(bis.point(p, t + th, th, o), o, mode, &dummy);
-              },
-              Sys::kReversals ? 1e-7 : 1e-10);
-          StepOut ob = out;
-          bool fired = b == hh;
-          const double min_move = std::fmax(1e-15, 1e-10 * hh);  // the locator's tolerance
-          // GMS (kReversals) gets more tries, each moving at least twice as far as the last.
-          constexpr int kTries = Sys::kReversals ? 8 : 3;
-          double moved = 0.0;
-          for (int tries = 0; !fired && tries < kTries; ++tries) {
-            ob = redo(b);
-            const double fb = sys.event(p, t + b, ob.y, mode, &dummy);
-            fired = fb < 0.0;
-            if (fired && tries == 0) {
-              // The extension's error can also put b AFTER the real step's switch: the state
-              // at b is then past the event (e.g. a body entering stick below DV, which then
-              // creeps slower for the whole stick: 1.5e-6 N per stick-slip cycle). Step back
-              // once by the extension's event slope if that moves b by more than 1e-9 h.
-              const double db = std::fmax(min_move, 1e-6 * b);
-              const double slope =
-                  (yd_event(b) - yd_event(b - db)) / db;  // event rate on the extension [1/s]
-              const double back = slope < 0.0 ? fb / slope : 0.0;  // > 0: the root lies before b
-              if (back > std::fmax(min_move, 1e-9 * hh) && back < b) {
-                const double nb = b - 0.99 * back;
-                StepOut on = redo(nb);
-                if (sys.event(p, t + nb, on.y, mode, &dummy) < 0.0) {
-                  ob = on;
-                  b = nb;
-                }
-              }
-            }
-            if (!fired) {  // secant towards the end of the step, 1 % beyond, at least min_move
-              double nb = b + 1.01 * fb * (hh - b) / (fb - fh);
-              if constexpr (Sys::kReversals) {
-                // GMS: the event jumps where v_r reverses (the sticking elements' load changes
-                // sign), from v_r [m/s] to a force [N], so the secant to the step's end hardly
-                // moves b (41k of 76k switches went on to regula falsi on real steps at 1.1
-                // mm/s, rtol 1e-4: 1.5M extra steps). A Newton step on the extension's event
-                // slope just before b (the continuous part) instead.
-                const double db = std::fmax(min_move, 1e-6 * b);
-                const double slope = (yd_event(b - db) - yd_event(b - 2.0 * db)) / db;
-                if (slope < 0.0) nb = std::fmax(nb, b - 1.01 * fb / slope);
-                nb = std::fmax(nb, b + 2.0 * moved);
-                moved = std::fmin(nb, hh) - b;
-              }
-              if (!(nb >= b + min_move)) nb = b + min_move;  // fb == 0: the event sits at 0
-              b = std::fmin(nb, hh);
-              if (b == hh) {
-                ob = out;
-                fired = true;
-              }
-            }
-          }
-          if (!fired) {
-            ob = out;
-            b = locate_switch(f0, hh, fh, ob, [&](double th, StepOut& o) {
-              o = redo(th);
-              return sys.event(p, t + th, o.y, mode, &dummy);
-            });
-          }
-          sys.event(p, t + b, ob.y, mode, &next);
-          out = ob;
-          t_new = (b == hh) ? t_new : t + b;
-          y = out.y;
-          record(t_new, out.k_end);  // the old mode's forces at the switch (F_f jumps here)
-          mode = sys.enter(mode, next, p, t_new, y);
-          out.y = y;  // keep the projection onto the new mode's set (on_enter)
-          out.k_end = sys.eval(p, t_new, y, mode);
-          ++ctx.result.switches;
-          zero_switches = b < 1e-9 * hh ? zero_switches + 1 : 0;
-        }
-      }
-      y = out.y;
-      t = t_new;
-      k1 = out.k_end;
-      if (after_step(p, t, y)) k1 = sys.eval(p, t, y, mode);  // dwell_time's clock restarted
-      ++ctx.result.steps;
-      if (!ctx.guard.ok(y)) {
-        fail_diverged(ctx, t, y, p.base_velocity(t), hh);
-        return false;
-      }
-      record(t, k1);
-      // PI step-size control (Gustafsson 1991; Hairer, Norsett & Wanner, Solving ODEs I,
-      // IV.2 / dopri5): h_new = h 0.9 err^-alpha err_prev^beta, no growth right after a rejection.
-      // One log and one exp instead of two pow (pow was 8 % of the run time, perf).
-      const double log_err = std::log(std::max(out.err, 1e-10));
-      double fac = 0.9 * std::exp(kBeta * log_err_prev - kAlpha * log_err);
-      fac = std::clamp(fac, 0.2, rejected_last ? 1.0 : 5.0);
-      log_err_prev = std::max(log_err, kLogErrFloor);
-      rejected_last = false;
-      h = std::min(hh * fac, opt.dt_max);
-      if constexpr (Sys::kReversals) {
-        if (vr0 * (y.v - base.ub[kStages - 1]) <= 0.0) h_rev = h;  // this step reversed v_r
-      }
-      if (last) t = t1;
-    }
-    return true;
+    return adaptive_stage(ctx, sys, es, p, t0, t1, acc, y, h);
   });
 }
 

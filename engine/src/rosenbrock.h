@@ -281,6 +281,11 @@ class RosenbrockStepper {
       y = yb;
       th = b;
     }
+    enter_at(h, th, y, t1);
+  }
+  /// The switch point of switch_at_event: y at the fraction th of the step of length h from t_.
+  /// Moves there and enters the next mode (a time jump of the model's never goes past t1).
+  void enter_at(double h, double th, const Vec& y, double t1) {
     const double t_before = t_;
     set_time(t_ + th * h);
     y_ = y;
