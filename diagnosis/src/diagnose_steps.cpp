@@ -208,30 +208,23 @@ std::vector<BaseFit> calibrate_all(const Steps& st, Diagnosis* /*d*/) {
   return bases;
 }
 
-int choose_base(const std::vector<BaseFit>& bases, bool stats) {
+int choose_base(const std::vector<BaseFit>& bases, bool stats, bool effects_only) {
   int best = -1;
   const auto score = [&](const BaseFit& b) { return stats ? b.cal.score_heldout : b.cal.rmse_heldout; };
   for (std::size_t i = 0; i < bases.size(); ++i)
     if (bases[i].cal.status == "ok" && std::isfinite(score(bases[i])) &&
+        (!effects_only || engine::model_traits(bases[i].cal.model).info->effects) &&
         (best < 0 || score(bases[i]) < score(bases[static_cast<std::size_t>(best)])))
       best = static_cast<int>(i);
   return best;
 }
 
-namespace {
-bool takes_effects(const BaseFit& b) { return engine::model_traits(b.cal.model).info->effects; }
-}  // namespace
-
 int base_for_causes(const Steps& st, const std::vector<BaseFit>& bases, int best, std::string* note) {
   note->clear();
   const BaseFit& top = bases[static_cast<std::size_t>(best)];
-  if (st.o.candidates.empty() || takes_effects(top)) return best;
+  if (st.o.candidates.empty() || engine::model_traits(top.cal.model).info->effects) return best;
   const bool stats = st.P.stats;
-  std::vector<BaseFit> usable;  // the calibrated bases that take effects, by index in bases
-  std::vector<int> index;
-  for (std::size_t i = 0; i < bases.size(); ++i)
-    if (takes_effects(bases[i])) usable.push_back(bases[i]), index.push_back(static_cast<int>(i));
-  const int u = choose_base(usable, stats);
+  const int u = choose_base(bases, stats, /*effects_only=*/true);
   const auto held = [&](const BaseFit& b) {
     char buf[48];
     std::snprintf(buf, sizeof buf, stats ? "score %.4g" : "RMSE %.4g N", stats ? b.cal.score_heldout : b.cal.rmse_heldout);
@@ -242,7 +235,7 @@ int base_for_causes(const Steps& st, const std::vector<BaseFit>& bases, int best
     *note = top_text + ", and no calibrated base that does: no candidate is tested";
     return best;
   }
-  const BaseFit& alt = usable[static_cast<std::size_t>(u)];
+  const BaseFit& alt = bases[static_cast<std::size_t>(u)];
   const std::string alt_text = held(alt);
   const Adequacy a = judge_adequacy(st.Ps, alt, compare_stats(st.Ps, alt.stats, nullptr));
   if (a.verdict != "adequate") {
@@ -250,7 +243,7 @@ int base_for_causes(const Steps& st, const std::vector<BaseFit>& bases, int best
     return best;
   }
   *note = top_text + "; the candidates are tested on the best base that does, " + alt_text;
-  return index[static_cast<std::size_t>(u)];
+  return u;
 }
 
 Evidence describe_base(const Steps& st, BaseFit* base, std::vector<BaseFit>* bases, int best,

@@ -37,8 +37,9 @@ std::vector<RunReading> run_readings(const Problem& P);
 /// std::runtime_error when none could be.
 std::vector<BaseFit> calibrate_all(const Steps& st, Diagnosis* d);
 
-/// The best calibrated base: lowest held-out RMSE (time domain) or statistics score.
-int choose_base(const std::vector<BaseFit>& bases, bool stats);
+/// The best calibrated base: lowest held-out RMSE (time domain) or statistics score; with
+/// effects_only, the best of those that take catalogue effects (ModelInfo::effects). -1: none.
+int choose_base(const std::vector<BaseFit>& bases, bool stats, bool effects_only = false);
 
 /// The base the diagnosis is built on, given the best calibrated one (`best`). Candidates are
 /// catalogue effects, and a model without them (engine::ModelInfo::effects: rate_state, gms)
