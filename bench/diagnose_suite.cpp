@@ -35,7 +35,7 @@ void print_confusion(const std::string& title, const std::vector<std::string>& r
                      const std::vector<std::string>& causes,
                      std::map<std::string, std::map<std::string, int>>& table) {
   std::printf("\n%s\n", title.c_str());
-  const char* abbrev[] = {"none", "visc", "strib", "dwell", "wavi", "drift", "load", "sensor", "damp", "vweak"};
+  const char* abbrev[] = {"none", "visc", "strib", "dwell", "wavi", "drift", "load", "sensor", "damp", "vweak", "aging"};
   std::printf("| %-22s |", "case");
   for (const char* a : abbrev) std::printf(" %6s |", a);
   std::printf("\n|%s|", std::string(24, '-').c_str());

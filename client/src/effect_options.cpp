@@ -36,7 +36,7 @@ void add_effect_options(CLI::App& cmd, std::string& effect, std::vector<std::str
                  "stribeck_delta [-], dwell_A [N], dwell_tau [s], dwell_v [m/s], waviness_eps [-], "
                  "waviness_lambda [m], waviness_phi [rad], drift_gamma [1/m], load_eta [-], "
                  "load_phi [rad], sensor_tau [s] (or sensor_omega_n [rad/s]), sensor_zeta [-], "
-                 "c_d [N s/m], vw_beta [-], vw_v [m/s]");
+                 "c_d [N s/m], vw_beta [-], vw_v [m/s], aging_beta [-], aging_Dc [m], aging_t0 [s]");
 }
 
 void apply_effect_options(const std::string& effect, const std::vector<std::string>& params,

@@ -60,6 +60,16 @@ bool DiagnoseOptions::IsValid(std::string* why) const {
   return true;
 }
 
+const std::vector<engine::ExtensionKind>& default_candidates() {
+  static const std::vector<engine::ExtensionKind> kDefault = [] {
+    std::vector<engine::ExtensionKind> v;
+    for (const engine::ExtensionKind k : engine::extension_catalogue())
+      if (k != engine::ExtensionKind::kAging) v.push_back(k);
+    return v;
+  }();
+  return kDefault;
+}
+
 Diagnosis diagnose(const measured::MeasuredDataset& data, const DiagnoseOptions& o) {
   const auto t_start = std::chrono::steady_clock::now();
   if (std::string why; !o.IsValid(&why)) throw std::invalid_argument(why);

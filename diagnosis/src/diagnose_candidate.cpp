@@ -112,6 +112,9 @@ std::vector<std::vector<double>> fixed_extension_starts(engine::ExtensionKind k)
     // (vw_beta, vw_v): the log slope at a reference near v_d and one near the slip velocities.
     case engine::ExtensionKind::kVelocityWeakening:
       return {{0.0, 2e-3}, {0.05, 2e-3}, {0.15, 2e-3}, {0.1, 1e-2}};
+    // (aging_beta, aging_Dc, aging_t0): renewed by a slip (D_c below the slip distance) or not.
+    case engine::ExtensionKind::kAging:
+      return {{0.0, 1e-5, 0.01}, {0.05, 1e-5, 0.01}, {0.15, 1e-5, 0.01}, {0.05, 1e-4, 0.1}};
     default: return {};
   }
 }
@@ -214,7 +217,7 @@ void bisect_profile(const CandidateInputs& in, const Held& held_model, const Shi
 
 /// Starting points of the candidate `kind` (full theta: base parameters, then ext's). Effects
 /// that act on the slip itself (viscous, drive damping, Stribeck shape, dwell time, velocity
-/// weakening) change the
+/// weakening, aging) change the
 /// stick-slip cycle so much that the base optimum is no start for a moderate size: their cycle
 /// features at (base optimum, size) miss slips. For them every starting size gets its own
 /// profile start: the base parameters refitted on the features with the extension held at that
@@ -229,7 +232,8 @@ Starts candidate_starts(const CandidateInputs& in, engine::ExtensionKind kind,
   const bool slip_force = kind == engine::ExtensionKind::kViscous || kind == engine::ExtensionKind::kDriveDamping;
   const bool profile = slip_force || kind == engine::ExtensionKind::kStribeckShape ||
                        kind == engine::ExtensionKind::kDwellTime ||
-                       kind == engine::ExtensionKind::kVelocityWeakening;
+                       kind == engine::ExtensionKind::kVelocityWeakening ||
+                       kind == engine::ExtensionKind::kAging;
   auto ext_starts = extension_starts(kind, ext, in.ev, in.scan, in.F_C0, in.scales);
   bool wave_profile = false;
   if (kind == engine::ExtensionKind::kWaviness) {

@@ -352,6 +352,10 @@ std::vector<ParamSpec> extension_specs(engine::ExtensionKind k) {
       // beta <= 0.3 and vw_v >= v_d / 2 keep f(v_d + v_a) = 1 - beta ln(1 + (v_d + v_a) / vw_v)
       // above its floor (extensions.h) for v_a up to about 10 v_d.
       return {{"vw_beta", 0.0, 0.3, false, 0.02}, {"vw_v", 5e-4, 5e-2, true, 2e-3}};
+    case engine::ExtensionKind::kAging:
+      return {{"aging_beta", 0.0, 0.3, false, 0.02},
+              {"aging_Dc", 1e-6, 1e-3, true, 1e-5},
+              {"aging_t0", 1e-3, 1.0, true, 0.01}};
     case engine::ExtensionKind::kNone: break;
   }
   return {};
@@ -364,7 +368,7 @@ std::vector<double> neutral_extension(engine::ExtensionKind k) {
   switch (k) {
     case engine::ExtensionKind::kStribeckShape: v[0] = 2.0; break;  // the base's Gaussian Stribeck curve
     case engine::ExtensionKind::kSensorDynamics: v[0] = 0.0; break;  // ideal sensor
-    default: v[0] = 0.0; break;  // sigma2, A, eps, gamma, eta, c_d, vw_beta = 0
+    default: v[0] = 0.0; break;  // sigma2, A, eps, gamma, eta, c_d, vw_beta, aging_beta = 0
   }
   return v;
 }

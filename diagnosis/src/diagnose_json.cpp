@@ -174,7 +174,7 @@ std::string_view evidence_view(std::string_view cause) noexcept {
   if (cause == "viscous" || cause == "stribeck_shape" || cause == "drive_damping" ||
       cause == "velocity_weakening")
     return "velocity";
-  if (cause == "dwell_time") return "stick_time";
+  if (cause == "dwell_time" || cause == "aging") return "stick_time";
   if (cause == "drift") return "position";
   if (cause == "waviness") return "x_spectrum";
   if (cause == "sensor_dynamics") return "t_spectrum";

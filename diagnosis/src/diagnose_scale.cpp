@@ -141,9 +141,9 @@ engine::Dim extension_dimension(const std::string& name) {
   using engine::Dim;
   if (name == "sigma2" || name == "c_d") return engine::kDamping;
   if (name == "dwell_A") return engine::kForce;
-  if (name == "dwell_tau" || name == "sensor_tau") return engine::kTime;
+  if (name == "dwell_tau" || name == "sensor_tau" || name == "aging_t0") return engine::kTime;
   if (name == "dwell_v" || name == "vw_v") return engine::kVelocity;
-  if (name == "waviness_lambda") return engine::kLength;
+  if (name == "waviness_lambda" || name == "aging_Dc") return engine::kLength;
   if (name == "drift_gamma") return Dim{0, -1, 0};
   return engine::kDimensionless;  // delta, eps, phi, the load's eta and phi and components, zeta
 }

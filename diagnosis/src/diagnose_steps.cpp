@@ -43,8 +43,8 @@ int calibration_rank(engine::ModelKind m) {
 
 /// Relative cost rank of a candidate's fit (time domain): viscous and drive_damping have profile
 /// starts at four sizes with held-v_s refits, a bisection and two feature fits; sensor_dynamics
-/// held-v_s starts; dwell_time, stribeck_shape, velocity_weakening and waviness profile starts;
-/// the others neither.
+/// held-v_s starts; dwell_time, stribeck_shape, velocity_weakening, aging and waviness profile
+/// starts; the others neither.
 int candidate_rank(engine::ExtensionKind k) {
   switch (k) {
     case engine::ExtensionKind::kViscous:
@@ -53,6 +53,7 @@ int candidate_rank(engine::ExtensionKind k) {
     case engine::ExtensionKind::kDwellTime: return 2;
     case engine::ExtensionKind::kStribeckShape:
     case engine::ExtensionKind::kVelocityWeakening:
+    case engine::ExtensionKind::kAging:
     case engine::ExtensionKind::kWaviness: return 1;
     default: return 0;
   }

@@ -4,7 +4,7 @@
 //
 // Each extension reduces, at one instant, to
 //   level  multiplier of the friction level (waviness, drift, normal load, velocity
-//          weakening) [-]
+//          weakening, aging) [-]
 //   dFS    addition to the static friction force (dwell time) [N]
 //   sigma2 viscous coefficient [N s/m], delta the Stribeck exponent, c_d the drive damping
 // and each model's eval_ext (models/*.h) applies them with the same operation order as its base
@@ -27,6 +27,8 @@ struct ExtRuntime : EffectTerms {
   double c_d = 0.0;     ///< effective drive damping [N s/m]
   double two_pi_over_lambda = 0.0;  ///< waviness wavenumber [1/m]
   double t_slip = 0.0;  ///< last time |v_r| > dwell_v [s]
+  double theta = 0.0;   ///< aging: the contact age [s]
+  double t_age = 0.0;   ///< aging: the time theta belongs to [s]
 
   ExtRuntime() = default;
   explicit ExtRuntime(const Extension& ext) : kind(ext.kind), e(ext) {
@@ -36,6 +38,19 @@ struct ExtRuntime : EffectTerms {
     two_pi_over_lambda = 2.0 * M_PI / e.waviness_lambda;
   }
   bool tracks_stick() const noexcept { return kind == ExtensionKind::kDwellTime; }
+  bool tracks_age() const noexcept { return kind == ExtensionKind::kAging; }
+
+  /// aging: advances theta' = 1 - a theta, a = |v_r| / D_c, from t_age to t with v_r held,
+  /// exactly: theta e^{-a h} + h (1 - e^{-a h}) / (a h). Returns true when the level changed.
+  bool age(double t, double v_r) noexcept {
+    const double h = t - t_age;
+    if (!(h > 0.0)) return false;
+    const double g = std::fabs(v_r) / e.aging_Dc * h;
+    const double phi = g > 1e-8 ? -std::expm1(-g) / g : 1.0 - 0.5 * g;
+    theta = theta * std::exp(-g) + h * phi;
+    t_age = t;
+    return e.aging_beta != 0.0;
+  }
 
   /// v_a, w, t0: the current stage's base vibration (u' = v_a cos(w (t - t0))); v_r the
   /// relative velocity x' - u' [m/s].
@@ -52,6 +67,9 @@ struct ExtRuntime : EffectTerms {
         break;
       case ExtensionKind::kDwellTime:
         m.dFS = e.dwell_A * std::log1p(std::fmax(t - t_slip, 0.0) / e.dwell_tau);
+        break;
+      case ExtensionKind::kAging:
+        m.level = 1.0 + e.aging_beta * std::log1p(theta / e.aging_t0);
         break;
       case ExtensionKind::kVelocityWeakening:
         m.level = std::fmax(1.0 - e.vw_beta * std::log1p(std::fabs(v_r) / e.vw_v),

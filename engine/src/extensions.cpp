@@ -38,6 +38,9 @@ const ExtField kExtFields[] = {
     {"c_d", ExtensionKind::kDriveDamping, Dom::kNonNegative, &Extension::c_d, 0.0},
     {"vw_beta", ExtensionKind::kVelocityWeakening, Dom::kHalf, &Extension::vw_beta, 0.0},
     {"vw_v", ExtensionKind::kVelocityWeakening, Dom::kPositive, &Extension::vw_v, 1.0e-3},
+    {"aging_beta", ExtensionKind::kAging, Dom::kNonNegative, &Extension::aging_beta, 0.0},
+    {"aging_Dc", ExtensionKind::kAging, Dom::kPositive, &Extension::aging_Dc, 1.0e-5},
+    {"aging_t0", ExtensionKind::kAging, Dom::kPositive, &Extension::aging_t0, 0.01},
 };
 
 std::string fmt(double v) {
@@ -72,6 +75,7 @@ const char* to_string(ExtensionKind k) noexcept {
     case ExtensionKind::kSensorDynamics: return "sensor_dynamics";
     case ExtensionKind::kDriveDamping: return "drive_damping";
     case ExtensionKind::kVelocityWeakening: return "velocity_weakening";
+    case ExtensionKind::kAging: return "aging";
   }
   return "?";
 }
@@ -82,7 +86,7 @@ const std::vector<ExtensionKind>& extension_catalogue() {
       ExtensionKind::kDwellTime, ExtensionKind::kWaviness,
       ExtensionKind::kDrift,    ExtensionKind::kNormalLoadModulation,
       ExtensionKind::kSensorDynamics, ExtensionKind::kDriveDamping,
-      ExtensionKind::kVelocityWeakening};
+      ExtensionKind::kVelocityWeakening, ExtensionKind::kAging};
   return kAll;
 }
 
@@ -93,7 +97,7 @@ ExtensionKind extension_from_string(std::string_view name) {
   throw InvalidParameter("effect", std::string(name),
                          "unknown effect; expected none or one of viscous, stribeck_shape, "
                          "dwell_time, waviness, drift, normal_load_modulation, sensor_dynamics, "
-                         "drive_damping, velocity_weakening");
+                         "drive_damping, velocity_weakening, aging");
 }
 
 bool Extension::IsValid(std::vector<std::string>* errors, double x_max, double v_max) const {

@@ -189,10 +189,13 @@ inline DerivT<Model::kStates> rhs(const Model& model, const Plant& p, double t,
   }
 }
 
-/// After every accepted step: the dwell_time extension's stick clock restarts while slipping.
-/// Returns true when the friction law changed at t (so a cached derivative at t is stale).
+/// After every accepted step: the dwell_time extension's stick clock restarts while slipping;
+/// the aging extension's contact age advances to t. Returns true when the friction law changed
+/// at t (so a cached derivative at t is stale).
 template <class S>
 inline bool after_step(const Plant& p, double t, const S& y) noexcept {
+  if (p.ext && p.ext->tracks_age()) [[unlikely]]
+    return p.ext->age(t, y.v - p.base_velocity(t));
   if (p.ext && p.ext->tracks_stick() && std::fabs(y.v - p.base_velocity(t)) > p.ext->e.dwell_v) {
     const bool changed = p.ext->e.dwell_A != 0.0 && t > p.ext->t_slip;
     p.ext->t_slip = t;

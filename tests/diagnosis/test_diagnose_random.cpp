@@ -31,7 +31,7 @@ double drawn(const RandomCase& c, const std::string& name) {
 TEST(RandomSuite, EveryCaseDrawsItsNumbersWithinTheStatedRangesReproducibly) {
   for (const RandomFamily family : {RandomFamily::kSeed, RandomFamily::kShort}) {
     const auto a = random_cases(7, family), b = random_cases(7, family), c = random_cases(8, family);
-    ASSERT_EQ(a.size(), engine::extension_catalogue().size() + 2);
+    ASSERT_EQ(a.size(), default_candidates().size() + 2);
     std::set<engine::ExtensionKind> kinds;
     for (std::size_t i = 0; i < a.size(); ++i) {
       kinds.insert(a[i].kind);
@@ -56,7 +56,7 @@ TEST(RandomSuite, EveryCaseDrawsItsNumbersWithinTheStatedRangesReproducibly) {
         EXPECT_EQ(a[i].data.runs[0].duration, 20.0);
       }
     }
-    EXPECT_EQ(kinds.size(), engine::extension_catalogue().size() + 1);  // every effect and none
+    EXPECT_EQ(kinds.size(), default_candidates().size() + 1);  // every candidate and none
   }
 }
 

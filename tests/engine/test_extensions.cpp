@@ -36,7 +36,7 @@ double mean_between(const std::vector<TraceSample>& tr, double t0, double t1) {
 }  // namespace
 
 TEST(Extensions, CatalogueIdsAndNames) {
-  ASSERT_EQ(extension_catalogue().size(), 9u);
+  ASSERT_EQ(extension_catalogue().size(), 10u);
   for (ExtensionKind k : extension_catalogue()) {
     EXPECT_EQ(extension_from_string(to_string(k)), k);
     EXPECT_FALSE(extension_parameter_names(k).empty()) << to_string(k);
@@ -324,6 +324,53 @@ TEST(Extensions, VelocityWeakeningLowersSteadyLevelByLogOfVelocity) {
   // 1 - f: beta ln 2 = 0.069 at 1 mm/s, beta ln 5 = 0.161 at 4 mm/s.
   EXPECT_NEAR(drop[0], beta * std::log(2.0), 3e-3);
   EXPECT_NEAR(drop[1], beta * std::log(5.0), 3e-3);
+}
+
+// Aging: in steady sliding the contact age settles at theta = D_c / v, so LuGre sliding
+// steadily (large h_v) follows (1 + beta ln(1 + D_c / (v t0))) (F_C + (F_S - F_C) e^{-(v/v_s)^2})
+// + h_v v, at two drive velocities (a stronger level at the slower one).
+TEST(Extensions, AgingSettlesAtTheSteadyStateAgeOfEachVelocity) {
+  const double beta = 0.05, Dc = 1e-4, t0 = 0.01, h_v = 2000.0, vs = 3.5e-4;
+  for (double v : {1e-3, 4e-3}) {
+    SimConfig c = short_run(model_kind<LuGre>, 0.0, 2.0, 2.0);
+    c.friction["h_v"] = h_v;
+    c.drive.v_d = v;
+    const SimResult r0 = run_ok(c);
+    c.extension.kind = ExtensionKind::kAging;
+    c.extension.aging_beta = beta;
+    c.extension.aging_Dc = Dc;
+    c.extension.aging_t0 = t0;
+    const SimResult r = run_ok(c);
+    const double level = 1.0 + beta * std::log1p(Dc / (v * t0));  // 1.120, 1.063
+    const double curve = 8.3 + 2.8 * std::exp(-(v / vs) * (v / vs));
+    EXPECT_NEAR(r.stages[1].mean_force, level * curve + h_v * v, 2e-3 * curve) << v;
+    EXPECT_NEAR(r.stages[1].mean_force - r0.stages[1].mean_force, (level - 1) * curve,
+                0.05 * (level - 1) * curve) << v;
+  }
+}
+
+// Aging heals the contact while it sticks: Karnopp sticks with v_r = 0, so the age grows by the
+// stick time T and the breakaway level is F_S (1 + beta ln(1 + T / t0)), as dwell_time's closed
+// form with a relative size. Each fast slip (theta ~ D_c / |v| ~ 1 ms) renews the contact, so the
+// cycles are regular: the peak P solves P = F_S (1 + beta ln(1 + T / t0)) with T the stick time
+// 2 (P - F_C) / (k_d v_d) of the symmetric Coulomb slip about F_C. (Measured 1.2 % below: the
+// slip's own level, theta ~ D_c / |v| > 0, is a little above F_C.)
+TEST(Extensions, AgingRaisesBreakawayByLogOfStickTime) {
+  SimConfig c = short_run(model_kind<Karnopp>, 0.0, 4.0, 1.0);
+  c.friction["DV"] = 1e-8;
+  const double amp0 = run_ok(c).stages[0].amplitude;
+  const double beta = 0.05, t0 = 0.01;
+  c.extension.kind = ExtensionKind::kAging;
+  c.extension.aging_beta = beta;
+  c.extension.aging_Dc = 1e-5;
+  c.extension.aging_t0 = t0;
+  const SimResult r = run_ok(c);
+  double P = 11.1;
+  for (int i = 0; i < 100; ++i)
+    P = 11.1 * (1.0 + beta * std::log1p(2 * (P - 8.3) / (11700 * 1e-3) / t0));
+  EXPECT_GT(r.stages[0].amplitude, amp0 + 1.0);
+  EXPECT_NEAR(r.stages[0].amplitude, 2 * (P - 8.3), 0.02 * r.stages[0].amplitude);
+  EXPECT_GT(r.stages[0].slip_events, 2);
 }
 
 // Drive damping: dissipation in the drive shrinks the stick-slip amplitude monotonically, and

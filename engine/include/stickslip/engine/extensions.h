@@ -48,14 +48,27 @@
 //                          the whole contact force, and its sliding force k_t s0 f(v_r).
 //                          Rate-and-state and GMS take no catalogue effect (rate-and-state has
 //                          its own logarithmic rate dependence, a - b).
+//   aging                  state-variable aging of the friction level (Dieterich 1979): a contact
+//                          age theta [s], theta' = 1 - |v_r| theta / aging_Dc, theta(0) = 0 (a
+//                          fresh contact), and F_C, F_S x (1 + aging_beta ln(1 + theta / aging_t0))
+//                          aging_beta >= 0 [-], aging_Dc [m] > 0, aging_t0 [s] > 0.
+//                          Unlike dwell_time (a stick clock reset when |v_r| passes dwell_v) the
+//                          contact heals during creep too, and its memory fades over a slip
+//                          distance aging_Dc; in steady sliding theta = aging_Dc / |v|, so the
+//                          level 1 + beta ln(1 + D_c / (|v| t0)) also weakens with velocity.
+//                          theta is advanced after every accepted integrator step by the exact
+//                          solution for |v_r| held at the step's end (first order in the step);
+//                          the level is that of the step's start within a step.
+//                          Per model as the other level effects (below); rate-and-state and GMS:
+//                          no effect.
 //
-// "Friction level" scaling (waviness, drift, normal load, velocity weakening) multiplies F_C and F_S (Dahl: F_C;
+// "Friction level" scaling (waviness, drift, normal load, velocity weakening, aging) multiplies F_C and F_S (Dahl: F_C;
 // Karnopp: F_S and F_slip; LuGre: F_C and F_S inside g(v_r), so the bristle relaxes to the new
 // level; Reset Integrator: the whole contact force (1 + a) k_t s + beta s', i.e. both the
 // sliding force k_t s0 and the breakaway force).
 //
 // Every effect has a neutral value of its size parameter (sigma2 = 0, delta = 2, A = 0, eps = 0,
-// gamma = 0, eta = 0, sensor_tau = 0, c_d = 0, vw_beta = 0) at which it reproduces the base model exactly.
+// gamma = 0, eta = 0, sensor_tau = 0, c_d = 0, vw_beta = 0, aging_beta = 0) at which it reproduces the base model exactly.
 
 #include <string>
 #include <string_view>
@@ -74,13 +87,15 @@ enum class ExtensionKind {
   kSensorDynamics,
   kDriveDamping,
   kVelocityWeakening,
+  kAging,
 };
 /// The catalogue ids: "none", "viscous", "stribeck_shape", "dwell_time", "waviness", "drift",
-/// "normal_load_modulation", "sensor_dynamics", "drive_damping", "velocity_weakening".
+/// "normal_load_modulation", "sensor_dynamics", "drive_damping", "velocity_weakening",
+/// "aging".
 const char* to_string(ExtensionKind k) noexcept;
 /// Throws InvalidParameter("effect", name, ...) for an unknown id.
 ExtensionKind extension_from_string(std::string_view name);
-/// The nine catalogue entries (without kNone), in catalogue order.
+/// The ten catalogue entries (without kNone), in catalogue order.
 const std::vector<ExtensionKind>& extension_catalogue();
 
 /// velocity_weakening's floor of the level factor f(v_r) [-].
@@ -104,6 +119,9 @@ struct Extension {
   double c_d = 0.0;              ///< drive_damping: drive damping [N s/m]
   double vw_beta = 0.0;          ///< velocity_weakening: log-slope of the level [-], in [0, 0.5)
   double vw_v = 1.0e-3;          ///< velocity_weakening: reference velocity [m/s]
+  double aging_beta = 0.0;       ///< aging: log-growth of the level with the contact age [-]
+  double aging_Dc = 1.0e-5;      ///< aging: slip distance that renews the contact [m]
+  double aging_t0 = 0.01;        ///< aging: age scale of the logarithm [s]
 
   bool active() const noexcept { return kind != ExtensionKind::kNone; }
   bool operator==(const Extension&) const = default;
