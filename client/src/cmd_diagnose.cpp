@@ -75,7 +75,7 @@ void add_diagnose_command(CLI::App& app, int& exit_code) {
   auto* fit_rate = cmd->add_option("--fit-rate", a->opt.fit_rate, "decimated samples per second [Hz]")->capture_default_str();
   auto* holdout = cmd->add_option("--holdout", a->opt.holdout_fraction, "held-out last part of each stage [-]")->capture_default_str();
   auto* alpha = cmd->add_option("--alpha", a->opt.alpha, "family-wise significance level [-]")->capture_default_str();
-  auto* min_gain = cmd->add_option("--min-gain", a->opt.min_gain, "minimum held-out gain to name a cause [-]")->capture_default_str();
+  auto* min_gain = cmd->add_option("--min-gain", a->opt.min_gain, "minimum held-out gain over the noise floor to name a cause [-]")->capture_default_str();
   auto* evals_base = cmd->add_option("--max-evals-base", a->opt.max_evals_base,
                                      "objective evaluations per base model")->capture_default_str();
   auto* evals_cand = cmd->add_option("--max-evals-candidate", a->opt.max_evals_candidate,

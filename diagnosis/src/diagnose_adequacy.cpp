@@ -1,6 +1,7 @@
 // The adequacy verdict (diagnose_adequacy.h).
 #include "stickslip/diagnosis/detail/diagnose_adequacy.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -101,6 +102,14 @@ double noise_inflation(const Problem& P) {
   for (const RunData& r : P.runs) rho += r.rec.noise.rho;
   rho = P.runs.empty() ? 0.0 : std::clamp(rho / static_cast<double>(P.runs.size()), 0.0, 0.99);
   return (1 + rho) / (1 - rho);
+}
+
+double gain_over_noise(double rmse_base, double rmse_ext, double sigma, std::size_t n_held, double inflation) {
+  const double s2 = sigma * sigma, excess0 = rmse_base * rmse_base - s2;
+  const double n_eff = static_cast<double>(n_held) / std::max(inflation, 1.0);
+  if (!(std::isfinite(excess0) && std::isfinite(rmse_ext)) || n_eff < 1 || excess0 <= 3.0 * s2 * std::sqrt(2.0 / n_eff))
+    return 0.0;
+  return 1.0 - std::sqrt(std::max(rmse_ext * rmse_ext - s2, 0.0) / excess0);
 }
 
 Adequacy judge_adequacy(const Problem& P, const BaseFit& base, const std::vector<StatsComparison>& cmp) {

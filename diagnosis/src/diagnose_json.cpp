@@ -195,6 +195,7 @@ nlohmann::json candidates_json(const Diagnosis& d) {
                      {"rmse_fit", common::json_number(c.rmse_fit)},
                      {"rmse_heldout", common::json_number(c.rmse_heldout)},
                      {"gain", common::json_number(c.gain)},
+                     {"gain_over_noise", common::json_number(c.gain_over_noise)},
                      {"aic", common::json_number(c.aic)},
                      {"lr", common::json_number(c.lr)},
                      {"dof", c.dof},

@@ -60,7 +60,7 @@ int candidate_rank(engine::ExtensionKind k) {
 }
 
 /// Holm's step-down correction of the p values of the candidates in `order` (ok ones), and the
-/// significance: p_holm < alpha and held-out gain >= min_gain.
+/// significance: p_holm < alpha, a held-out gain > 0 and a gain over the noise >= min_gain.
 void holm(std::vector<CandFit>& cands, std::vector<std::size_t> order, const DiagnoseOptions& o) {
   std::sort(order.begin(), order.end(),
             [&](std::size_t a, std::size_t b) { return cands[a].res.p_value < cands[b].res.p_value; });
@@ -70,15 +70,17 @@ void holm(std::vector<CandFit>& cands, std::vector<std::size_t> order, const Dia
     CandidateResult& c = cands[order[r]].res;
     running = std::max(running, std::min(1.0, (m - static_cast<double>(r)) * c.p_value));
     c.p_holm = running;
-    c.significant = c.p_holm < o.alpha && c.gain >= o.min_gain;
+    c.significant = c.p_holm < o.alpha && c.gain > 0 && c.gain_over_noise >= o.min_gain;
   }
 }
+
 
 /// Time domain: likelihood ratio n_eff ln(SSE_base / SSE_ext) ~ chi^2(dof) against the base.
 /// Statistics: an F test of the statistics residuals, ((SSE_base - SSE_ext) / dof) / (SSE_ext /
 /// (n - k)) ~ F(dof, n - k) (the residuals are tolerance units, not noise: the test asks whether
 /// the extension explains more than an extra parameter does by chance). Gains are on held-out data.
-void significance(std::vector<CandFit>& cands, const BaseFit& base, bool stats, const DiagnoseOptions& o) {
+void significance(std::vector<CandFit>& cands, const BaseFit& base, const Problem& P, const DiagnoseOptions& o) {
+  const bool stats = P.stats;
   std::vector<std::size_t> order;
   const double held0 = stats ? base.cal.score_heldout : base.cal.rmse_heldout;
   for (std::size_t i = 0; i < cands.size(); ++i) {
@@ -97,12 +99,14 @@ void significance(std::vector<CandFit>& cands, const BaseFit& base, bool stats, 
                                  boost::math::fisher_f(c.dof, std::max(n - k, 1.0)), c.lr))
                            : 1.0;
       c.gain = 1.0 - c.score_heldout / held0;
+      c.gain_over_noise = c.gain;  // scores are tolerance units: no noise floor to take off
     } else {
       c.lr = sse1 < sse0 ? cands[i].n_eff * std::log(sse0 / sse1) : 0.0;
       c.p_value = c.lr > 0 ? boost::math::cdf(boost::math::complement(
                                  boost::math::chi_squared(c.dof), c.lr))
                            : 1.0;
       c.gain = 1.0 - c.rmse_heldout / held0;
+      c.gain_over_noise = gain_over_noise(held0, c.rmse_heldout, noise_floor(P), base.full.n_held, noise_inflation(P));
     }
     order.push_back(i);
   }
@@ -328,9 +332,9 @@ int best_candidate_index(const std::vector<CandFit>& cands, bool stats) {
 int test_and_name(const Steps& st, BaseFit* base, BaseFit* slot, std::vector<CandFit>* cands,
                   const Evidence& ev, Diagnosis* d) {
   const bool stats = st.P.stats;
-  significance(*cands, *base, stats, st.o);
+  significance(*cands, *base, st.P, st.o);
   // An extension must beat a fully refitted base (step 4 of diagnose.h).
-  if (refit_base(st, base, slot, cands, ev.n_eff)) significance(*cands, *base, stats, st.o);
+  if (refit_base(st, base, slot, cands, ev.n_eff)) significance(*cands, *base, st.P, st.o);
   st.check_stop();
   // Among the significant candidates (each already beats the refitted base on held-out data by
   // min_gain), the time domain's cause is the one with the lowest information criterion on the fit

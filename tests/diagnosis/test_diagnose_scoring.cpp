@@ -8,6 +8,7 @@
 
 #include <cmath>
 
+#include "stickslip/diagnosis/detail/diagnose_adequacy.h"
 #include "stickslip/diagnosis/diagnose.h"
 #include "stickslip/diagnosis/diagnose_suite.h"
 #include "stickslip/measured/synth.h"
@@ -59,4 +60,33 @@ TEST(DiagnoseScoring, NestedCandidateNeverFitsWorseThanItsBase) {
   }
   EXPECT_EQ(d.cause, "none");
   RecordProperty("candidates_at_base_point", at_base);
+}
+
+// The effect size that names a cause in the time domain (docs/diagnose.md step 5): the share of
+// the base's held-out error above the noise floor that the extension removes. Noise sigma alone
+// caps a plain RMSE gain at 1 - sigma / rmse_base; the gain over the noise is not capped by it.
+TEST(DiagnoseScoring, GainOverTheNoiseMeasuresTheErrorAboveTheNoiseFloor) {
+  using diagnosis::detail::gain_over_noise;
+  const double sigma = 0.036;  // [N]
+  const std::size_t n = 12000;  // held-out samples
+  // A base 0.047 N, an extension that leaves only the noise: every excess removed (gain 1),
+  // while the plain gain 1 - 0.036 / 0.047 = 0.23 is all the noise allows.
+  EXPECT_NEAR(gain_over_noise(0.047, sigma, sigma, n, 1.0), 1.0, 1e-12);
+  // Half the excess variance removed: 1 - sqrt(1/2).
+  const double half = std::sqrt(sigma * sigma + 0.5 * (0.047 * 0.047 - sigma * sigma));
+  EXPECT_NEAR(gain_over_noise(0.047, half, sigma, n, 1.0), 1.0 - std::sqrt(0.5), 1e-12);
+  // An extension worse than the base: negative.
+  EXPECT_LT(gain_over_noise(0.047, 0.050, sigma, n, 1.0), 0.0);
+  // Below the noise (the noise estimate is itself uncertain): everything above it is removed.
+  EXPECT_NEAR(gain_over_noise(0.047, 0.9 * sigma, sigma, n, 1.0), 1.0, 1e-12);
+  // A base within three standard errors of the noise variance (sd sigma^2 sqrt(2 / n_eff)) has
+  // nothing above the noise to explain: 0, however good the extension looks.
+  const double sd = sigma * sigma * std::sqrt(2.0 / static_cast<double>(n));
+  EXPECT_EQ(gain_over_noise(std::sqrt(sigma * sigma + 2.9 * sd), sigma, sigma, n, 1.0), 0.0);
+  EXPECT_GT(gain_over_noise(std::sqrt(sigma * sigma + 3.1 * sd), sigma, sigma, n, 1.0), 0.99);
+  // Correlated noise has fewer independent samples (n / inflation): the same base is then too
+  // close to the noise.
+  EXPECT_EQ(gain_over_noise(std::sqrt(sigma * sigma + 3.1 * sd), sigma, sigma, n, 4.0), 0.0);
+  // No noise estimate: nothing is claimed.
+  EXPECT_EQ(gain_over_noise(0.047, 0.040, std::nan(""), n, 1.0), 0.0);
 }

@@ -31,7 +31,9 @@
 //    residuals (Eigen), inflated by n / n_eff for correlated residuals.
 //  * Significance. Likelihood ratio n_eff ln(SSE_base / SSE_ext) ~ chi^2(k) with n_eff =
 //    n (1 - rho) / (1 + rho) from the AR(1) coefficient rho of the base residuals; Holm's
-//    correction over the candidates; and a minimum effect size: held-out gain >= min_gain.
+//    correction over the candidates; and a minimum effect size: the held-out error improves and,
+//    in the time domain, the share of the base's held-out error above the record's noise floor
+//    that the extension removes (gain_over_noise) is >= min_gain.
 //    Every significant candidate also triggers a base-only refit from its base parameters
 //    (all in parallel); the best refit, if better, becomes the null and the tests are redone,
 //    so an extension never wins only because the base optimisation had stopped early. Among the
@@ -86,7 +88,7 @@ struct DiagnoseOptions {
   int max_evals_candidate = 160;        ///< objective evaluations per extension (phases A + B)
   int max_evals_profile = 12;           ///< per profile start (base refit at a fixed size)
   double alpha = 0.01;                  ///< family-wise significance level [-]
-  double min_gain = 0.1;                ///< minimum held-out gain to name a cause [-]
+  double min_gain = 0.1;                ///< minimum held-out gain over the noise to name a cause [-]
   bool fit_offset = true;               ///< fit one constant sensor offset [N]
   bool keep_traces = true;              ///< keep measured/base/extended series for plots
   /// Leave each whole run out in turn (needs >= 2 runs): refit on the others, score on it.
@@ -167,11 +169,15 @@ struct CandidateResult {
   double offset = 0;
   double rmse_fit = 0, rmse_heldout = 0;   ///< [N]
   double gain = 0;         ///< 1 - rmse_heldout / base rmse_heldout
+  /// Time domain: the share of the base's held-out error above the noise floor sigma that the
+  /// extension removes, 1 - sqrt((rmse_heldout^2 - sigma^2) / (base^2 - sigma^2)), 0 when the
+  /// base is within the noise's sampling error of sigma; statistics: = gain.
+  double gain_over_noise = 0;
   double aic = 0;          ///< on the same footing as the base's
   double lr = 0;           ///< likelihood-ratio statistic against the refitted base
   int dof = 0;             ///< extra parameters
   double p_value = 1, p_holm = 1;
-  bool significant = false;  ///< p_holm < alpha and gain >= min_gain
+  bool significant = false;  ///< p_holm < alpha, gain > 0 and gain_over_noise >= min_gain
   /// The candidate's own optimum scored worse than the base it nests, so it is reported at
   /// the base point (its extension at the neutral size): an extended model is never worse
   /// than its base.
