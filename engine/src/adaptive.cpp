@@ -1,5 +1,5 @@
 // Adaptive-step Dormand-Prince 5(4) with
-//  - an integrating factor (Lawson) on the bristle strain of Dahl and LuGre: with
+//  - an integrating factor (Lawson) on the bristle strain of Dahl, LuGre and elasto-plastic: with
 //    lambda_n = |v_r|/g(v_r) frozen at the step start, w = exp(lambda_n tau) s turns
 //    s' = v_r - lambda(v_r) s into w' = exp(lambda_n tau) (v_r - (lambda - lambda_n) s), which is
 //    not stiff, so fast slips (lambda up to ~5e5 1/s) do not limit the step (applied to the
@@ -68,13 +68,10 @@ struct SmoothSys {
     else if constexpr (requires { model.lambda(0.0, 0.0); }) return model.lambda(y.v - ub, y.s);
     else return 0.0;
   }
-  /// The quasi-steady s about which the factor acts (s' = v_r - lambda s vanishes at v_r /
-  /// lambda), unless the model gives its own (s_eq(v_r, lambda)).
-  static constexpr bool kOwnSeq = requires(const Model& m) { m.s_eq(0.0, 0.0); };
-  double own_s_eq(double v_r, double lambda) const noexcept {
-    if constexpr (kOwnSeq) return model.s_eq(v_r, lambda);
-    else return v_r / lambda;
-  }
+  /// The factor acts about the quasi-steady s = v_r / lambda (where s' = v_r - lambda s
+  /// vanishes), or, where lambda is the Jacobian -ds'/ds (Model::kLinearisedFactor), about the
+  /// Newton point s + s'/lambda (see lawson_factor).
+  static constexpr bool kOwnSeq = requires { Model::kLinearisedFactor; };
   static constexpr bool kEvents = false;
   /// v_r reverses inside the step: the kink of |v_r| and the Stribeck bump (width ~v_s) sit
   /// there, see reversal_limited_step.
@@ -126,7 +123,6 @@ struct HybridSys {
   }();
   static constexpr bool kOwnSeq = false;
   double lambda_ub(const State&, double) const noexcept { return 0.0; }  // no factor
-  double own_s_eq(double, double) const noexcept { return 0.0; }
   double event(const Plant& p, double t, const State& y, Mode mode, Mode* next) const noexcept {
     if constexpr (kMore) return hyb.event(mode, point(p, t, y), internal_states(y), next);
     else return hyb.event(mode, point(p, t, y), y.s, next);
@@ -401,7 +397,7 @@ inline LawsonFactor lawson_factor(const Sys& sys, const Plant& p, const typename
     f.L = std::min(lam, 600.0 / hh);
     if (f.L * hh < kLawsonMin) f.L = 0.0;
     if constexpr (Sys::kOwnSeq) {
-      if (f.L > 0.0) f.s_eq = sys.own_s_eq(vr0, lam);
+      if (f.L > 0.0) f.s_eq = y.s + s.k1.d.s / lam;  // s.k1: s' at (s.t, y)
     } else {
       if (f.L > 0.0) f.s_eq = vr0 / lam;
     }
