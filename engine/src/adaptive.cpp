@@ -71,7 +71,10 @@ struct SmoothSys {
   /// The factor acts about the quasi-steady s = v_r / lambda (where s' = v_r - lambda s
   /// vanishes), or, where lambda is the Jacobian -ds'/ds (Model::kLinearisedFactor), about the
   /// Newton point s + s'/lambda (see lawson_factor).
-  static constexpr bool kOwnSeq = requires { Model::kLinearisedFactor; };
+  static constexpr bool kOwnSeq = [] {
+    if constexpr (requires { Model::kLinearisedFactor; }) return Model::kLinearisedFactor;
+    else return false;
+  }();
   static constexpr bool kEvents = false;
   /// v_r reverses inside the step: the kink of |v_r| and the Stribeck bump (width ~v_s) sit
   /// there, see reversal_limited_step.
