@@ -80,7 +80,9 @@ struct SmoothSys {
   /// there, see reversal_limited_step.
   static constexpr bool kReversals = true;
   double event(const Plant&, double, const State&, Mode, Mode*) const noexcept { return 1.0; }
-  Mode start_mode(const Plant&, double, State&) const noexcept { return 0; }
+  Mode start_mode(const Plant&, double, State&, const RunContext* = nullptr) const noexcept {
+    return 0;
+  }
   Mode enter(Mode, Mode to, const Plant&, double, State&) const noexcept { return to; }
 };
 
@@ -139,9 +141,18 @@ struct HybridSys {
     if constexpr (kMore) return hyb.classify(pt, internal_states(y));
     else return hyb.classify(pt, y.s);
   }
-  Mode start_mode(const Plant& p, double t, State& y) const noexcept {
-    const Mode m = classify(point(p, t, y), y);
-    hyb.on_enter(m, point(p, t, y), y, m);
+  /// The mode at t from the state (ctx: at a stage start, the last stage's mode where it holds).
+  Mode start_mode(const Plant& p, double t, State& y,
+                  const RunContext* ctx = nullptr) const noexcept {
+    const Point pt = point(p, t, y);
+    Mode m;
+    if (ctx) {
+      if constexpr (kMore) m = stage_start_mode(*ctx, hyb, pt, internal_states(y));
+      else m = stage_start_mode(*ctx, hyb, pt, y.s);
+    } else {
+      m = classify(pt, y);
+    }
+    hyb.on_enter(m, pt, y, m);
     return m;
   }
   Mode enter(Mode from, Mode to, const Plant& p, double t, State& y) const noexcept {
@@ -301,8 +312,9 @@ struct StageLoop {
   double log_err_prev = kLogErrFloor;  ///< PI controller memory: log of Hairer's initial 1e-4
   bool rejected_last = false;          ///< the last attempted step was rejected
 
-  StageLoop(const Sys& sys, const Plant& p, double t0, typename Sys::State& y)
-      : t(t0), mode(sys.start_mode(p, t0, y)), k1(sys.eval(p, t0, y, mode)) {}
+  StageLoop(const Sys& sys, const Plant& p, double t0, typename Sys::State& y,
+            const RunContext& ctx)
+      : t(t0), mode(sys.start_mode(p, t0, y, &ctx)), k1(sys.eval(p, t0, y, mode)) {}
 };
 
 #include "adaptive_switch.inc"  // (inside this anonymous namespace): locate_in_step
@@ -483,7 +495,7 @@ inline bool adaptive_stage(RunContext& ctx, const Sys& sys,
                            double t1, StageAccumulator& acc, typename Sys::State& y, double& h) {
   using StepOut = StepOutT<typename Sys::State>;
   const IntegratorOptions& opt = ctx.cfg.integrator;
-  StageLoop<Sys> s(sys, p, t0, y);
+  StageLoop<Sys> s(sys, p, t0, y, ctx);
   record_sample(ctx, acc, sys, s.t, s.k1, y);
   while (s.t < t1) {
     if (static_cast<double>(ctx.result.steps + ctx.result.rejected) > opt.max_steps) {
@@ -521,6 +533,7 @@ inline bool adaptive_stage(RunContext& ctx, const Sys& sys,
     }
     if (last) s.t = t1;
   }
+  if constexpr (Sys::kEvents) ctx.mode.put(s.mode);
   return true;
 }
 
