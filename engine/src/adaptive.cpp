@@ -310,7 +310,8 @@ struct StageLoop {
   BaseAtStages base;        ///< base motion at the stage times (smooth models)
   std::array<typename Sys::State, kStages> kst;  ///< stages of the last step (dense output)
   double log_err_prev = kLogErrFloor;  ///< PI controller memory: log of Hairer's initial 1e-4
-  bool rejected_last = false;          ///< the last attempted step was rejected
+  bool no_growth = false;  ///< the next step may not grow: the last attempt was rejected, or
+                          ///< (GMS) a switch cut it
 
   StageLoop(const Sys& sys, const Plant& p, double t0, typename Sys::State& y,
             const RunContext& ctx)
@@ -427,7 +428,7 @@ template <class Sys>
 inline bool reject_step(RunContext& ctx, const Plant& p, StageLoop<Sys>& s,
                         const typename Sys::State& y, double err, double hh, double& h) {
   ++ctx.result.rejected;
-  s.rejected_last = true;
+  s.no_growth = true;
   const double fac = std::isfinite(err) ? 0.9 * std::pow(err, -kAlpha) : 0.1;
   h = hh * std::clamp(fac, 0.1, 0.9);
   if (h < 1e-14 * std::max(1.0, s.t)) {
@@ -445,9 +446,9 @@ template <class Sys>
 inline double pi_step(StageLoop<Sys>& s, double err, double hh, double dt_max) {
   const double log_err = std::log(std::max(err, 1e-10));
   double fac = 0.9 * std::exp(kBeta * s.log_err_prev - kAlpha * log_err);
-  fac = std::clamp(fac, 0.2, s.rejected_last ? 1.0 : 5.0);
+  fac = std::clamp(fac, 0.2, s.no_growth ? 1.0 : 5.0);
   s.log_err_prev = std::max(log_err, kLogErrFloor);
-  s.rejected_last = false;
+  s.no_growth = false;
   return std::min(hh * fac, dt_max);
 }
 
@@ -483,6 +484,10 @@ inline double take_switch(RunContext& ctx, StageAccumulator& acc, const Sys& sys
     out.k_end = sys.eval(p, t_new, y, s.mode);
     ++ctx.result.switches;
     s.zero_switches = b < 1e-9 * hh ? s.zero_switches + 1 : 0;
+    // GMS: the cut step's error says nothing of the new mode (an element entering slip relaxes at
+    // C_el); letting the next step grow up to 5x made 141k rejections per 149k switches at
+    // 4 mm/s, rtol 1e-4, and a 4.5e-4 F_ref trace error at rtol 3e-4 (6.7e-5 without growth).
+    if constexpr (Sys::kReversals) s.no_growth = true;
   }
   return t_new;
 }
