@@ -88,7 +88,7 @@ void rk4_event(RunContext& ctx, const H& hyb, typename H::State& y) {
     const long n = steps_for(t1 - t0, ctx.cfg.integrator.dt);
     const double h = (t1 - t0) / static_cast<double>(n);
     auto point = [&](double t, const State& z) { return p.point(t, z.x, z.v); };
-    typename H::Mode mode = hyb.classify(point(t0, y), states_of(y));
+    typename H::Mode mode = stage_start_mode(ctx, hyb, point(t0, y), states_of(y));
     hyb.on_enter(mode, point(t0, y), y, mode);
     for (long k = 0; k < n; ++k) {
       double t = t0 + static_cast<double>(k) * h;
@@ -150,6 +150,7 @@ void rk4_event(RunContext& ctx, const H& hyb, typename H::State& y) {
       }
     }
     ctx.result.steps += static_cast<std::size_t>(n);
+    ctx.mode.put(mode);
     const auto end = Frozen<H>{hyb, mode}(p, t1, y);
     acc.sample(t1, end.F_d, end.F_f);
     if (ctx.trace.active())

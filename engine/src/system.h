@@ -6,6 +6,7 @@
 
 #include <array>
 #include <cmath>
+#include <cstring>
 #include <functional>
 #include <string>
 #include <type_traits>
@@ -264,6 +265,33 @@ template <class M>
 
 struct CheckpointData;
 
+/// A switching model's mode at the end of a stage, carried into the next stage and through
+/// checkpoints (a GMS element slipping below its limit under a rising Stribeck curve must go on
+/// slipping; the state alone says it sticks). Any hybrid form's Mode (trivially copyable, <= 16
+/// bytes) as bytes, so that CheckpointData stays one type for every model.
+class CarriedMode {
+ public:
+  template <class M>
+  void put(const M& m) noexcept {
+    static_assert(std::is_trivially_copyable_v<M> && sizeof(M) <= kBytes);
+    std::memcpy(bytes_.data(), &m, sizeof m);
+    valid_ = true;
+  }
+  /// The mode put last into *m; false (m untouched) when none was put (the run's first stage).
+  template <class M>
+  bool get(M* m) const noexcept {
+    static_assert(std::is_trivially_copyable_v<M> && sizeof(M) <= kBytes);
+    if (!valid_) return false;
+    std::memcpy(m, bytes_.data(), sizeof *m);
+    return true;
+  }
+
+ private:
+  static constexpr std::size_t kBytes = 16;
+  std::array<unsigned char, kBytes> bytes_{};
+  bool valid_ = false;
+};
+
 /// What an integrator needs for one run: stage loop bookkeeping is shared by all of them.
 struct RunContext {
   const SimConfig& cfg;
@@ -280,6 +308,9 @@ struct RunContext {
   /// Save the run here after its first save_after stages (simulate with a checkpoint).
   CheckpointData* save = nullptr;
   std::size_t save_after = 0;
+  /// A switching model's mode at the end of the last stage (set by the integrator; drive_stages
+  /// saves and restores it with the state).
+  CarriedMode mode{};
 };
 
 /// A run at the end of one of its stages (simulate.h, SimCheckpoint): everything the stage loop
@@ -291,6 +322,7 @@ struct CheckpointData {
   State y{};                   ///< x, x', s
   std::array<double, kMaxInternalStates - 1> zs{};  ///< further internal states
   double h = 0.0;              ///< the adaptive integrator's next step [s]
+  CarriedMode mode{};          ///< a switching model's mode
   ExtRuntime ext{};
   TraceRecorder trace{0.0, nullptr};  ///< its output pointer is stale: retarget before use
   SimResult result;            ///< the run so far
@@ -338,6 +370,7 @@ void drive_stages(RunContext& ctx, S& y, double* h, IntegrateStage&& integrate_s
     if constexpr (requires { y.zs; })
       for (std::size_t k = 0; k < y.zs.size(); ++k) y.zs[k] = ctx.resume->zs[k];
     if (h) *h = ctx.resume->h;
+    ctx.mode = ctx.resume->mode;
   }
   for (std::size_t i = first; i < ctx.cfg.stages.size(); ++i) {
     const Stage& st = ctx.cfg.stages[i];
@@ -369,6 +402,7 @@ void drive_stages(RunContext& ctx, S& y, double* h, IntegrateStage&& integrate_s
       if constexpr (requires { y.zs; })
         for (std::size_t k = 0; k < y.zs.size(); ++k) c.zs[k] = y.zs[k];
       c.h = h ? *h : 0.0;
+      c.mode = ctx.mode;
       c.ext = ctx.ext;
       c.trace = ctx.trace;
       c.result = ctx.result;
@@ -376,6 +410,17 @@ void drive_stages(RunContext& ctx, S& y, double* h, IntegrateStage&& integrate_s
     }
   }
   ctx.result.t_end = t0;
+}
+
+/// A hybrid form's mode at the start of a stage at point pt with internal states z: the mode the
+/// last stage ended in (ctx.mode) where its event function is >= 0 here (the base velocity may
+/// jump at the stage start, e.g. a slip whose v_r reversed), else classified from the state.
+template <class H, class Z>
+typename H::Mode stage_start_mode(const RunContext& ctx, const H& hyb, const Point& pt,
+                                  const Z& z) noexcept {
+  typename H::Mode m{}, next{};
+  if (ctx.mode.get(&m) && hyb.event(m, pt, z, &next) >= 0.0) return m;
+  return hyb.classify(pt, z);
 }
 
 /// Locates the first switch in a step of length h whose frozen-mode event function is f0 (>= 0,

@@ -179,3 +179,75 @@ TEST(Gms, SeedRunWithTwelveElements) {
     EXPECT_LT(r.stages[1].mean_force, 0.5 * r.stages[0].mean_force) << "vibration lowers it";
   }
 }
+
+// Each element's stick/slip mode carries over a stage boundary and a checkpoint. With one
+// element (its force is the trace's s) and a slow relaxation C_el, the element slips below its
+// limit while |v_r| falls and the Stribeck curve rises. A still-base run split into two stages
+// there equals the one-stage run to the integration tolerance (a split that restarted the element
+// as sticking would load it at k_t v_r up to its limit at once); and the split run continued from
+// a checkpoint at the boundary is bitwise the split run from rest.
+TEST(Gms, SlipBelowItsLimitContinuesAcrossStagesAndCheckpoints) {
+  SimConfig c = config(1);
+  set_parameter(c, "C_el", 100.0);
+  c.integrator.rtol = 1e-10;
+  c.stages = {Stage{1.5, 0.0, 1500.0}};
+  c.trace.rate = 1e5;
+  const Gms g = make_model<Gms>(c);
+  const SimResult whole = simulate(c);
+  ASSERT_EQ(whole.status, RunStatus::kOk) << whole.reason;
+  // The split: of the samples where the element's force moves at its slip rate C (sgn(v) - F/s(v))
+  // (not at its stick rate k_t v), more than 2 % below its limit s(v), with |v| falling (the base
+  // is still: v_r = v), the one with the largest |v| (a sticking element would close the gap
+  // fastest there).
+  double t_split = 0.0, gap = 0.0, v_split = 0.0;
+  const auto& tr = whole.trace;
+  for (std::size_t i = 1; i + 1 < tr.size(); ++i) {
+    const double v = tr[i].v, dir = v > 0 ? 1.0 : -1.0, F = tr[i].s, s_v = g.s(v);
+    if (std::fabs(v) < 1e-5 || tr[i + 1].t <= tr[i].t) continue;
+    const double rate = (tr[i + 1].s - F) / (tr[i + 1].t - tr[i].t);
+    const double slip = g.slip_rate(0, dir, F, s_v), stick = g.stick_rate(0, v);
+    const bool slipping = std::fabs(rate - slip) < 0.05 * std::fabs(stick - slip);
+    if (slipping && 1.0 - dir * F / s_v > 0.02 && std::fabs(v) > v_split &&
+        std::fabs(tr[i + 1].v) < std::fabs(v)) {
+      t_split = tr[i].t;
+      v_split = std::fabs(v);
+      gap = 1.0 - dir * F / s_v;
+    }
+  }
+  ASSERT_GT(t_split, 0.0) << "no slip 2 % below the limit with |v| falling in the run";
+  SimConfig split = c;
+  split.stages = {Stage{t_split, 0.0, 1500.0}, Stage{0.3, 0.0, 1500.0}};
+  SimConfig shorter = c;
+  shorter.stages = {Stage{t_split + 0.3, 0.0, 1500.0}};
+  const SimResult a = simulate(shorter), b = simulate(split);
+  ASSERT_EQ(a.status, RunStatus::kOk) << a.reason;
+  ASSERT_EQ(b.status, RunStatus::kOk) << b.reason;
+  double worst = 0.0;  // F_d of the two runs at the same times after the split [N]
+  std::size_t j = 0, compared = 0;
+  for (const TraceSample& s : b.trace) {
+    if (s.t <= t_split) continue;
+    while (j < a.trace.size() && a.trace[j].t < s.t) ++j;
+    if (j == a.trace.size()) break;
+    if (a.trace[j].t != s.t) continue;
+    worst = std::max(worst, std::fabs(a.trace[j].F_d - s.F_d));
+    ++compared;
+  }
+  std::printf("split at %.6f s (v %.3g m/s), the element %.1f %% below its limit: F_d after the split within "
+              "%.3g N of the one-stage run (%zu samples), x_end %.3g m apart\n",
+              t_split, v_split, 100 * gap, worst, compared, std::fabs(a.x_end - b.x_end));
+  EXPECT_GT(compared, 1000u);
+  EXPECT_LT(worst, 1e-4) << "restarted as sticking: ~4e-3 N";
+  SimCheckpoint cp;
+  const SimResult first = simulate(split, 1, &cp);
+  ASSERT_EQ(cp.stages(), 1u);
+  const SimResult resumed = simulate_from(split, cp);
+  ASSERT_EQ(resumed.status, RunStatus::kOk) << resumed.reason;
+  EXPECT_EQ(resumed.x_end, b.x_end);
+  EXPECT_EQ(resumed.v_end, b.v_end);
+  EXPECT_EQ(resumed.s_end, b.s_end);
+  ASSERT_EQ(resumed.trace.size(), b.trace.size());
+  std::size_t differ = 0;
+  for (std::size_t i = 0; i < b.trace.size(); ++i)
+    differ += resumed.trace[i].F_d != b.trace[i].F_d || resumed.trace[i].s != b.trace[i].s;
+  EXPECT_EQ(differ, 0u);
+}
