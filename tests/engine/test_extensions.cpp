@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numeric>
+#include <utility>
 
 #include "stickslip/engine/simulate.h"
 
@@ -33,6 +34,20 @@ double mean_between(const std::vector<TraceSample>& tr, double t0, double t1) {
   return n ? s / n : NAN;
 }
 
+/// LuGre sliding steadily at drive velocity v [m/s] (h_v [N s/m] large enough to keep the
+/// slope positive), 2 s + 2 s still: the second stage's mean F_d [N] without the extension and
+/// with the one extend(c.extension) sets; neither run slips in that stage.
+template <class Extend>
+std::pair<double, double> steady_levels(double v, double h_v, Extend&& extend) {
+  SimConfig c = short_run(model_kind<LuGre>, 0.0, 2.0, 2.0);
+  c.friction["h_v"] = h_v;
+  c.drive.v_d = v;
+  const SimResult r0 = run_ok(c);
+  extend(c.extension);
+  const SimResult r = run_ok(c);
+  EXPECT_EQ(r.stages[1].slip_events, 0) << v;
+  return {r0.stages[1].mean_force, r.stages[1].mean_force};
+}
 }  // namespace
 
 TEST(Extensions, CatalogueIdsAndNames) {
@@ -306,20 +321,16 @@ TEST(Extensions, VelocityWeakeningLowersSteadyLevelByLogOfVelocity) {
   const double beta = 0.1, vw = 1e-3, h_v = 2000.0, vs = 3.5e-4;
   std::vector<double> drop;
   for (double v : {1e-3, 4e-3}) {
-    SimConfig c = short_run(model_kind<LuGre>, 0.0, 2.0, 2.0);
-    c.friction["h_v"] = h_v;
-    c.drive.v_d = v;
-    const SimResult r0 = run_ok(c);
-    c.extension.kind = ExtensionKind::kVelocityWeakening;
-    c.extension.vw_beta = beta;
-    c.extension.vw_v = vw;
-    const SimResult r = run_ok(c);
+    const auto [plain, weakened] = steady_levels(v, h_v, [&](auto& e) {
+      e.kind = ExtensionKind::kVelocityWeakening;
+      e.vw_beta = beta;
+      e.vw_v = vw;
+    });
     const double f = 1.0 - beta * std::log1p(v / vw);
     const double curve = 8.3 + 2.8 * std::exp(-(v / vs) * (v / vs));
-    EXPECT_NEAR(r0.stages[1].mean_force, curve + h_v * v, 2e-3 * curve) << v;
-    EXPECT_NEAR(r.stages[1].mean_force, f * curve + h_v * v, 2e-3 * curve) << v;
-    EXPECT_EQ(r.stages[1].slip_events, 0) << v;
-    drop.push_back((r0.stages[1].mean_force - r.stages[1].mean_force) / curve);
+    EXPECT_NEAR(plain, curve + h_v * v, 2e-3 * curve) << v;
+    EXPECT_NEAR(weakened, f * curve + h_v * v, 2e-3 * curve) << v;
+    drop.push_back((plain - weakened) / curve);
   }
   // 1 - f: beta ln 2 = 0.069 at 1 mm/s, beta ln 5 = 0.161 at 4 mm/s.
   EXPECT_NEAR(drop[0], beta * std::log(2.0), 3e-3);
@@ -332,20 +343,16 @@ TEST(Extensions, VelocityWeakeningLowersSteadyLevelByLogOfVelocity) {
 TEST(Extensions, AgingSettlesAtTheSteadyStateAgeOfEachVelocity) {
   const double beta = 0.05, Dc = 1e-4, t0 = 0.01, h_v = 2000.0, vs = 3.5e-4;
   for (double v : {1e-3, 4e-3}) {
-    SimConfig c = short_run(model_kind<LuGre>, 0.0, 2.0, 2.0);
-    c.friction["h_v"] = h_v;
-    c.drive.v_d = v;
-    const SimResult r0 = run_ok(c);
-    c.extension.kind = ExtensionKind::kAging;
-    c.extension.aging_beta = beta;
-    c.extension.aging_Dc = Dc;
-    c.extension.aging_t0 = t0;
-    const SimResult r = run_ok(c);
+    const auto [plain, aged] = steady_levels(v, h_v, [&](auto& e) {
+      e.kind = ExtensionKind::kAging;
+      e.aging_beta = beta;
+      e.aging_Dc = Dc;
+      e.aging_t0 = t0;
+    });
     const double level = 1.0 + beta * std::log1p(Dc / (v * t0));  // 1.120, 1.063
     const double curve = 8.3 + 2.8 * std::exp(-(v / vs) * (v / vs));
-    EXPECT_NEAR(r.stages[1].mean_force, level * curve + h_v * v, 2e-3 * curve) << v;
-    EXPECT_NEAR(r.stages[1].mean_force - r0.stages[1].mean_force, (level - 1) * curve,
-                0.05 * (level - 1) * curve) << v;
+    EXPECT_NEAR(aged, level * curve + h_v * v, 2e-3 * curve) << v;
+    EXPECT_NEAR(aged - plain, (level - 1) * curve, 0.05 * (level - 1) * curve) << v;
   }
 }
 
