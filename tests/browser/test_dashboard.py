@@ -354,6 +354,10 @@ class Dashboard(unittest.TestCase):
         # The cause's evidence panel is the marked one (the server names it: cause_view).
         marked = self.js("return Array.from(document.querySelectorAll('#evidence [data-marked=true]')).map(e => e.dataset.view)")
         self.assertEqual(marked, [d["cause_view"]] if d["cause_view"] else [])
+        # The candidates table: a row per candidate, with the naming rule's effect size (gain over the noise).
+        heads = self.js("return Array.from(document.querySelectorAll('#candidates th')).map(e => e.textContent)")
+        self.assertIn("gain over noise", heads)
+        self.assertEqual(self.js("return document.querySelectorAll('#candidates tbody tr').length"), len(d["result"]["candidates"]))
         # The calibration table has a row per model with an RMSE per run.
         self.assertEqual(self.js("return document.querySelectorAll('#calibration table')[0].querySelectorAll('tbody tr').length"), 1)
         self.full_shot("diagnosis")

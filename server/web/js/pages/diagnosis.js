@@ -175,6 +175,7 @@ function candidatesCard(r) {
               { label: "candidate", get: (x) => (x.id === r.cause ? h("strong", null, x.id + " (cause)") : x.id) },
               { label: "held-out RMSE [N]", num: true, get: (x) => num(x.rmse_heldout) },
               { label: "gain", num: true, get: (x) => num(x.gain, 3) },
+              { label: "gain over noise", num: true, get: (x) => num(x.gain_over_noise, 3) },
               { label: "LR", num: true, get: (x) => num(x.lr, 4) },
               { label: "p (Holm)", num: true, get: (x) => num(x.p_holm, 3) },
               { label: "significant", get: (x) => (x.significant ? "yes" : "no") },
