@@ -74,7 +74,6 @@ void holm(std::vector<CandFit>& cands, std::vector<std::size_t> order, const Dia
   }
 }
 
-
 /// Time domain: likelihood ratio n_eff ln(SSE_base / SSE_ext) ~ chi^2(dof) against the base.
 /// Statistics: an F test of the statistics residuals, ((SSE_base - SSE_ext) / dof) / (SSE_ext /
 /// (n - k)) ~ F(dof, n - k) (the residuals are tolerance units, not noise: the test asks whether
