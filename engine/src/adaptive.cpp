@@ -71,7 +71,7 @@ struct SmoothSys {
   /// The factor acts about the quasi-steady s = v_r / lambda (where s' = v_r - lambda s
   /// vanishes), or, where lambda is the Jacobian -ds'/ds (Model::kLinearisedFactor), about the
   /// Newton point s + s'/lambda (see lawson_factor).
-  static constexpr bool kOwnSeq = [] {
+  static constexpr bool kNewtonCentre = [] {
     if constexpr (requires { Model::kLinearisedFactor; }) return Model::kLinearisedFactor;
     else return false;
   }();
@@ -126,7 +126,7 @@ struct HybridSys {
     if constexpr (requires { H::kReversals; }) return H::kReversals;
     else return false;
   }();
-  static constexpr bool kOwnSeq = false;
+  static constexpr bool kNewtonCentre = false;
   double lambda_ub(const State&, double) const noexcept { return 0.0; }  // no factor
   double event(const Plant& p, double t, const State& y, Mode mode, Mode* next) const noexcept {
     if constexpr (kMore) return hyb.event(mode, point(p, t, y), internal_states(y), next);
@@ -412,7 +412,7 @@ inline LawsonFactor lawson_factor(const Sys& sys, const Plant& p, const typename
     const double lam = sys.lambda_ub(y, s.base.ub[0]);
     f.L = std::min(lam, 600.0 / hh);
     if (f.L * hh < kLawsonMin) f.L = 0.0;
-    if constexpr (Sys::kOwnSeq) {
+    if constexpr (Sys::kNewtonCentre) {
       if (f.L > 0.0) f.s_eq = y.s + s.k1.d.s / lam;  // s.k1: s' at (s.t, y)
     } else {
       if (f.L > 0.0) f.s_eq = vr0 / lam;
