@@ -32,8 +32,10 @@ std::string fmt(const char* f, double a, double b = 0, double c = 0) {
   return buf;
 }
 
-/// What the model misses in one window (appended to *missing).
-void judge_window(const StatsComparison& c, const StatsSpec& spec, std::vector<std::string>* missing) {
+}  // namespace
+
+void judge_window(const StatsComparison& c, const StatsSpec& spec, double run_level,
+                  std::vector<std::string>* missing) {
   const SlipStats &m = c.measured, &s = c.base;
   Regime rm, rs;
   const std::string at = window_name(c) + ": ";
@@ -53,13 +55,19 @@ void judge_window(const StatsComparison& c, const StatsSpec& spec, std::vector<s
   }
   // In per cent of the larger of the window's mean and the run's level (a vibrating stage's mean
   // may nearly vanish).
-  const double dm = (s.mean - m.mean) / std::max(std::fabs(m.mean), std::fabs(spec.level));
+  const double dm = (s.mean - m.mean) / std::max(std::fabs(m.mean), std::fabs(run_level));
   if (std::fabs(dm) > kAdequateMean)
     missing->push_back(at + fmt("mean level off by %+.0f %% of the level (%.4g N predicted, %.4g N measured)",
                                 100 * dm, s.mean, m.mean));
 }
 
-}  // namespace
+double run_level(const std::vector<StatsComparison>& cmp, const std::string& run) {
+  double level = 0;
+  for (const StatsComparison& c : cmp)
+    if (c.run == run && !c.held && std::isfinite(c.measured.mean))
+      level = std::max(level, std::fabs(c.measured.mean));
+  return level;
+}
 
 bool clear_regime(const SlipStats& s, const StatsSpec& spec, Regime* regime) {
   *regime = s.regime;
@@ -146,7 +154,8 @@ Adequacy judge_adequacy(const Problem& P, const BaseFit& base, const std::vector
     for (const RunData& r : P.runs)
       if (r.name == c.run)
         for (const WindowStats& w : r.rec.windows)
-          if (w.stage == c.stage && w.held == c.held) judge_window(c, w.spec, &a.missing);
+          if (w.stage == c.stage && w.held == c.held)
+            judge_window(c, w.spec, run_level(cmp, c.run), &a.missing);
   }
   a.verdict = a.missing.empty() ? "adequate" : "inadequate";
   return a;

@@ -90,3 +90,75 @@ TEST(DiagnoseScoring, GainOverTheNoiseMeasuresTheErrorAboveTheNoiseFloor) {
   // No noise estimate: nothing is claimed.
   EXPECT_EQ(gain_over_noise(0.047, 0.040, std::nan(""), n, 1.0), 0.0);
 }
+
+namespace {
+
+// One stage window: a measured and a predicted statistics summary [N, 1/s].
+StatsComparison window(const std::string& run, int stage, double mean_meas, double mean_pred,
+                               Regime regime, double drop_meas = 0, double drop_pred = 0,
+                               double rate = 0) {
+  StatsComparison c;
+  c.run = run;
+  c.stage = stage;
+  c.measured.mean = mean_meas;
+  c.base.mean = mean_pred;
+  c.measured.regime = c.base.regime = regime;
+  const int drops = regime == Regime::kCreep ? 0 : 40;
+  c.measured.drops = c.base.drops = drops;
+  c.measured.drop_median = drop_meas;
+  c.base.drop_median = drop_pred;
+  c.measured.rate = c.base.rate = rate;
+  return c;
+}
+
+std::vector<std::string> misses(const std::vector<StatsComparison>& cmp) {
+  StatsSpec spec;
+  spec.threshold = 0.05;  // [N]: the drops above are clear
+  std::vector<std::string> missing;
+  for (const auto& c : cmp) detail::judge_window(c, spec, detail::run_level(cmp, c.run), &missing);
+  return missing;
+}
+
+}  // namespace
+
+// The adequacy verdict's mean-level check is against the run's friction force: a vibrating
+// stage's level (the seed's v_a = 4 mm/s: ~1.2 N against ~7 N still) off by 0.4 N is 6 % of the
+// run's level, not a failed base; alone, the same stage off by the same 0.4 N is 33 % of its
+// level. Drops off by more than kAdequateFactor and another regime stay misses wherever they are.
+TEST(DiagnoseAdequacy, TheMeanLevelIsJudgedAgainstTheRunsForce) {
+  const auto still = window("r", 0, 7.0, 7.05, Regime::kStickSlip, 4.0, 4.1, 1.1);
+  const auto vibrating = window("r", 1, 1.17, 0.78, Regime::kCreep);
+  EXPECT_DOUBLE_EQ(detail::run_level({still, vibrating}, "r"), 7.0);
+  EXPECT_DOUBLE_EQ(detail::run_level({still, vibrating}, "other"), 0.0);
+  EXPECT_TRUE(misses({still, vibrating}).empty());
+
+  const auto alone = misses({vibrating});
+  ASSERT_EQ(alone.size(), 1u);
+  EXPECT_NE(alone[0].find("mean level off by -33 %"), std::string::npos) << alone[0];
+
+  // The level of another run is not this run's level.
+  auto other_still = still;
+  other_still.run = "q";
+  EXPECT_EQ(misses({other_still, vibrating}).size(), 1u);
+
+  // A mean far off in the still stage itself is a miss against the run's level.
+  const auto low = window("r", 0, 7.0, 4.9, Regime::kStickSlip, 4.0, 4.1, 1.1);
+  const auto m_low = misses({low, vibrating});
+  ASSERT_EQ(m_low.size(), 1u);
+  EXPECT_NE(m_low[0].find("r stage 1: mean level off by -30 %"), std::string::npos) << m_low[0];
+
+  // Drops 2.5x too large are a miss in any run.
+  const auto big = window("r", 0, 7.0, 7.0, Regime::kStickSlip, 4.0, 10.0, 1.1);
+  const auto m_big = misses({big, vibrating});
+  ASSERT_EQ(m_big.size(), 1u);
+  EXPECT_NE(m_big[0].find("drop size off by a factor 2.50"), std::string::npos) << m_big[0];
+
+  // Stick-slip measured, creep predicted: another regime.
+  auto creep = still;
+  creep.base.regime = Regime::kCreep;
+  creep.base.drops = 0;
+  const auto m_creep = misses({creep});
+  ASSERT_FALSE(m_creep.empty());
+  EXPECT_NE(m_creep[0].find("regime stick_slip measured, creep predicted (no oscillation)"), std::string::npos)
+      << m_creep[0];
+}
