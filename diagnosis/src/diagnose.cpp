@@ -97,9 +97,9 @@ Diagnosis diagnose(const measured::MeasuredDataset& data, const DiagnoseOptions&
            o, o.threads > 0 ? o.threads : omp_get_max_threads(), meter.get()};
   st.check_stop();
 
-  // 1. Calibrate every base model; the best on held-out data is the base.
+  // 1. Calibrate every base model; the best adequate one on held-out data is the base.
   std::vector<BaseFit> bases = calibrate_all(st, &d);
-  const int best = base_for_causes(st, bases, choose_base(bases, P.stats), &d.base_note);
+  const int best = base_for_causes(st, bases, &d.base_note);
   BaseFit base = bases[best];
   // 2. Its evidence and uncertainty; 3. the adequacy verdict against trivial predictors.
   SineScan scan;
