@@ -279,29 +279,6 @@ constexpr double kAlpha = 0.2 - 0.75 * kBeta;
 constexpr double kGoldenFrac = 0.6180339887498949;
 constexpr double kLogErrFloor = -9.210340371976184;  // log(1e-4): floor of the PI memory
 
-/// A hybrid system's event at the end t_e of a full step: from the base motion at its last stage
-/// where adaptive() keeps it (Sys::kReversals; no glibc sin/cos), else from the plant.
-template <class Sys, class State>
-double event_at_end(const Sys& sys, const Plant& p, const BaseAtStages& base, double t_e,
-                    const State& y, typename Sys::Mode mode, typename Sys::Mode* next) {
-  if constexpr (Sys::kReversals) {
-    if (!p.ext)
-      return sys.event_at(Point{p.drive_force(t_e, y.x), y.v - base.ub[kStages - 1],
-                                base.ab[kStages - 1]},
-                          y, mode, next);
-  }
-  return sys.event(p, t_e, y, mode, next);
-}
-
-/// The step's continuous extension over the internal states that move.
-template <class State>
-DenseStep<State> make_dense(const State& y0, const State& y1,
-                            const std::array<State, kStages>& k, double h,
-                            const ErrorScaleT<State>& es) {
-  if constexpr (requires { es.nzs; }) return DenseStep<State>(y0, y1, k, h, es.nzs);
-  else return DenseStep<State>(y0, y1, k, h);
-}
-
 /// adaptive()'s state within one stage, carried from step to step (y and the step size h are
 /// carried by drive_stages, also between the stages).
 template <class Sys>
