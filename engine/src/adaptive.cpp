@@ -205,8 +205,7 @@ StepOut dp5_step(const Sys& sys, const Plant& p, double t, const State& y, const
   // k[i].s holds N_i = s'_i + L (s_i - s_eq); written into *k_out where given (no copy)
   std::array<State, kStages> k_own;
   std::array<State, kStages>& k = k_out ? *k_out : k_own;
-  std::array<Deriv, kStages> kd;
-  kd[0] = k1;
+  Deriv kd;  // the last stage's right-hand side (the 7th: f(y_new), FSAL)
   constexpr bool kMore = requires(State s) { s.zs; };  // internal states beyond s (plain DP5)
   // Stage derivatives member by member, of the internal states only those that move (the
   // others are never read): a whole 12-slot State per stage was ~5 % of the GMS run.
@@ -233,10 +232,10 @@ StepOut dp5_step(const Sys& sys, const Plant& p, double t, const State& y, const
     const double ui = ef[i] * u0 + h * ss;
     yi.s = s_eq + ui;
     if (Sys::kReversals && base)
-      kd[i] = sys.eval_ub(p, t + kC[i] * h, yi, base->ub[i], base->ab[i], mode);
+      kd = sys.eval_ub(p, t + kC[i] * h, yi, base->ub[i], base->ab[i], mode);
     else
-      kd[i] = sys.eval(p, t + kC[i] * h, yi, mode);
-    set_k(k[i], kd[i], ui);
+      kd = sys.eval(p, t + kC[i] * h, yi, mode);
+    set_k(k[i], kd, ui);
   }
   // Stage 7 is evaluated at the 5th-order solution (FSAL), so y_new is the stage-7 input.
   State y_new = y;
@@ -261,12 +260,12 @@ StepOut dp5_step(const Sys& sys, const Plant& p, double t, const State& y, const
       }
       e = std::max(e, es.k_zs[q] * std::fabs(h * ez));
     }
-    return {y_new, kd[6], e * es.inv_tol};
+    return {y_new, kd, e * es.inv_tol};
   } else {
     const double err = std::max({es.k_d * std::fabs(h * ex), es.z_v * std::fabs(h * ev),
                                  es.k_t * std::fabs(h * esum)}) *
                        es.inv_tol;
-    return {y_new, kd[6], err};
+    return {y_new, kd, err};
   }
 }
 
