@@ -159,6 +159,12 @@ struct HybridSys {
     hyb.on_enter(m, point(p, t, y), y, from);
     return m;
   }
+  /// The same at the point pt of y, for a hybrid form whose on_enter leaves x and x' alone.
+  Mode enter_at(Mode from, Mode to, const Point& pt, State& y) const noexcept {
+    const Mode m = hyb.settle(from, to, pt);
+    hyb.on_enter(m, pt, y, from);
+    return m;
+  }
 };
 
 template <class State>
@@ -196,12 +202,21 @@ StepOut dp5_step(const Sys& sys, const Plant& p, double t, const State& y, const
   std::array<double, kStages> ef;
   for (int i = 0; i < kStages; ++i) ef[i] = L == 0.0 ? 1.0 : std::exp(-L * kC[i] * h);
   const double u0 = y.s - s_eq;
-  std::array<State, kStages> k;  // k[i].s holds N_i = s'_i + L (s_i - s_eq)
-  std::array<Deriv, kStages> kd;
-  kd[0] = k1;
-  k[0] = {k1.d.x, k1.d.v, k1.d.s + L * u0};
+  // k[i].s holds N_i = s'_i + L (s_i - s_eq); written into *k_out where given (no copy)
+  std::array<State, kStages> k_own;
+  std::array<State, kStages>& k = k_out ? *k_out : k_own;
+  Deriv kd;  // the last stage's right-hand side (the 7th: f(y_new), FSAL)
   constexpr bool kMore = requires(State s) { s.zs; };  // internal states beyond s (plain DP5)
-  if constexpr (kMore) k[0].zs = k1.d.zs;
+  // Stage derivatives member by member, of the internal states only those that move (the
+  // others are never read): a whole 12-slot State per stage was ~5 % of the GMS run.
+  auto set_k = [&](State& ki, const Deriv& d, double u) {
+    ki.x = d.d.x;
+    ki.v = d.d.v;
+    ki.s = d.d.s + L * u;
+    if constexpr (kMore)
+      for (std::size_t q = 0; q < es.nzs; ++q) ki.zs[q] = d.d.zs[q];
+  };
+  set_k(k[0], k1, u0);
   for (int i = 1; i < kStages; ++i) {
     State yi = y;
     double ss = 0.0;
@@ -217,11 +232,10 @@ StepOut dp5_step(const Sys& sys, const Plant& p, double t, const State& y, const
     const double ui = ef[i] * u0 + h * ss;
     yi.s = s_eq + ui;
     if (Sys::kReversals && base)
-      kd[i] = sys.eval_ub(p, t + kC[i] * h, yi, base->ub[i], base->ab[i], mode);
+      kd = sys.eval_ub(p, t + kC[i] * h, yi, base->ub[i], base->ab[i], mode);
     else
-      kd[i] = sys.eval(p, t + kC[i] * h, yi, mode);
-    k[i] = {kd[i].d.x, kd[i].d.v, kd[i].d.s + L * ui};
-    if constexpr (kMore) k[i].zs = kd[i].d.zs;
+      kd = sys.eval(p, t + kC[i] * h, yi, mode);
+    set_k(k[i], kd, ui);
   }
   // Stage 7 is evaluated at the 5th-order solution (FSAL), so y_new is the stage-7 input.
   State y_new = y;
@@ -235,7 +249,6 @@ StepOut dp5_step(const Sys& sys, const Plant& p, double t, const State& y, const
     esum += kE[j] * (ef[6] / ef[j]) * k[j].s;
   }
   y_new.s = s_eq + (ef[6] * u0 + h * ss);
-  if (k_out) *k_out = k;
   if constexpr (kMore) {
     double e = std::max({es.k_d * std::fabs(h * ex), es.z_v * std::fabs(h * ev),
                          es.k_t * std::fabs(h * esum)});
@@ -247,12 +260,12 @@ StepOut dp5_step(const Sys& sys, const Plant& p, double t, const State& y, const
       }
       e = std::max(e, es.k_zs[q] * std::fabs(h * ez));
     }
-    return {y_new, kd[6], e * es.inv_tol};
+    return {y_new, kd, e * es.inv_tol};
   } else {
     const double err = std::max({es.k_d * std::fabs(h * ex), es.z_v * std::fabs(h * ev),
                                  es.k_t * std::fabs(h * esum)}) *
                        es.inv_tol;
-    return {y_new, kd[6], err};
+    return {y_new, kd, err};
   }
 }
 
@@ -272,29 +285,6 @@ constexpr double kAlpha = 0.2 - 0.75 * kBeta;
 // Fractional part of the golden ratio: spreads where the reversal falls in the cut step.
 constexpr double kGoldenFrac = 0.6180339887498949;
 constexpr double kLogErrFloor = -9.210340371976184;  // log(1e-4): floor of the PI memory
-
-/// A hybrid system's event at the end t_e of a full step: from the base motion at its last stage
-/// where adaptive() keeps it (Sys::kReversals; no glibc sin/cos), else from the plant.
-template <class Sys, class State>
-double event_at_end(const Sys& sys, const Plant& p, const BaseAtStages& base, double t_e,
-                    const State& y, typename Sys::Mode mode, typename Sys::Mode* next) {
-  if constexpr (Sys::kReversals) {
-    if (!p.ext)
-      return sys.event_at(Point{p.drive_force(t_e, y.x), y.v - base.ub[kStages - 1],
-                                base.ab[kStages - 1]},
-                          y, mode, next);
-  }
-  return sys.event(p, t_e, y, mode, next);
-}
-
-/// The step's continuous extension over the internal states that move.
-template <class State>
-DenseStep<State> make_dense(const State& y0, const State& y1,
-                            const std::array<State, kStages>& k, double h,
-                            const ErrorScaleT<State>& es) {
-  if constexpr (requires { es.nzs; }) return DenseStep<State>(y0, y1, k, h, es.nzs);
-  else return DenseStep<State>(y0, y1, k, h);
-}
 
 /// adaptive()'s state within one stage, carried from step to step (y and the step size h are
 /// carried by drive_stages, also between the stages).
@@ -473,14 +463,28 @@ inline double take_switch(RunContext& ctx, StageAccumulator& acc, const Sys& sys
     const SwitchSearch<Sys> q(sys, p, es, s, y, out, hh, L, fh);
     StepOut ob;
     const double b = locate_in_step(q, ob);
-    sys.event(p, s.t + b, ob.y, s.mode, &next);
-    out = ob;
     t_new = (b == hh) ? t_new : s.t + b;
-    y = out.y;
-    record_sample(ctx, acc, sys, t_new, out.k_end, y);  // the old mode's forces (F_f jumps)
-    s.mode = sys.enter(s.mode, next, p, t_new, y);
-    out.y = y;  // keep the projection onto the new mode's set (on_enter)
-    out.k_end = sys.eval(p, t_new, y, s.mode);
+    if constexpr (Sys::kReversals) {
+      // GMS: one point at the switch (base motion by angle addition; entering a mode changes
+      // element forces only) for the event, the old mode's forces there and the new mode's.
+      const Point pt = q.point_at(b, ob.y);
+      sys.event_at(pt, ob.y, s.mode, &next);
+      if (b < hh) ob.k_end = sys.eval_at(p, pt, ob.y, s.mode);
+      out = ob;
+      y = out.y;
+      record_sample(ctx, acc, sys, t_new, out.k_end, y);  // the old mode's forces (F_f jumps)
+      s.mode = sys.enter_at(s.mode, next, pt, y);
+      out.y = y;
+      out.k_end = sys.eval_at(p, pt, y, s.mode);
+    } else {
+      sys.event(p, s.t + b, ob.y, s.mode, &next);
+      out = ob;
+      y = out.y;
+      record_sample(ctx, acc, sys, t_new, out.k_end, y);  // the old mode's forces (F_f jumps)
+      s.mode = sys.enter(s.mode, next, p, t_new, y);
+      out.y = y;  // keep the projection onto the new mode's set (on_enter)
+      out.k_end = sys.eval(p, t_new, y, s.mode);
+    }
     ++ctx.result.switches;
     s.zero_switches = b < 1e-9 * hh ? s.zero_switches + 1 : 0;
     // GMS: the cut step's error says nothing of the new mode (an element entering slip relaxes at
