@@ -161,4 +161,51 @@ Adequacy judge_adequacy(const Problem& P, const BaseFit& base, const std::vector
   return a;
 }
 
+namespace {
+
+/// The best usable base among those with ok(i) true; -1: none.
+template <class Ok>
+int lowest(const std::vector<BaseChoice>& c, Ok ok) {
+  int best = -1;
+  for (std::size_t i = 0; i < c.size(); ++i)
+    if (std::isfinite(c[i].heldout) && ok(c[i]) && (best < 0 || c[i].heldout < c[static_cast<std::size_t>(best)].heldout))
+      best = static_cast<int>(i);
+  return best;
+}
+
+/// "lugre (held-out RMSE 0.0312 N)".
+std::string held_text(const BaseChoice& b, bool stats) {
+  return b.model + (stats ? fmt(" (held-out score %.4g)", b.heldout) : fmt(" (held-out RMSE %.4g N)", b.heldout));
+}
+
+}  // namespace
+
+int pick_base(const std::vector<BaseChoice>& c, bool candidates_asked, bool stats, std::string* note) {
+  note->clear();
+  const auto any = [](const BaseChoice&) { return true; };
+  const auto adequate = [](const BaseChoice& b) { return b.adequate; };
+  const int top = lowest(c, any);
+  if (top < 0) return -1;
+  const int top_adequate = lowest(c, adequate);
+  const int best = top_adequate >= 0 ? top_adequate : top;
+  const BaseChoice& b = c[static_cast<std::size_t>(best)];
+  if (best != top)
+    *note = held_text(c[static_cast<std::size_t>(top)], stats) + " fits best but is inadequate (" +
+            c[static_cast<std::size_t>(top)].first_miss + "); the base is the best adequate model, " +
+            held_text(b, stats);
+  if (!candidates_asked || b.effects) return best;
+  const std::string pre = best == top ? held_text(b, stats) + " fits best but takes no catalogue effect"
+                                      : *note + ", which takes no catalogue effect";
+  const int u = lowest(c, [](const BaseChoice& x) { return x.adequate && x.effects; });
+  if (u >= 0) {
+    *note = pre + "; the candidates are tested on the best base that does, " + held_text(c[static_cast<std::size_t>(u)], stats);
+    return u;
+  }
+  const int e = lowest(c, [](const BaseChoice& x) { return x.effects; });
+  *note = pre + (e < 0 ? ", and no calibrated base that does: no candidate is tested"
+                       : "; the best that does, " + held_text(c[static_cast<std::size_t>(e)], stats) +
+                             ", is inadequate: no candidate is tested");
+  return best;
+}
+
 }  // namespace stickslip::diagnosis::detail

@@ -207,68 +207,27 @@ std::vector<BaseFit> calibrate_all(const Steps& st, Diagnosis* /*d*/) {
     bases[i] = calibrate(st.in, models[i]);
   }
   st.check_stop();
-  if (choose_base(bases, st.P.stats) < 0)
+  const bool stats = st.P.stats;
+  if (std::none_of(bases.begin(), bases.end(), [&](const BaseFit& b) {
+        return b.cal.status == "ok" && std::isfinite(stats ? b.cal.score_heldout : b.cal.rmse_heldout);
+      }))
     throw std::runtime_error("no base model could be calibrated: " + bases[0].cal.status);
   return bases;
 }
 
-int choose_base(const std::vector<BaseFit>& bases, bool stats, bool effects_only,
-                const std::vector<char>* allowed) {
-  int best = -1;
-  const auto score = [&](const BaseFit& b) { return stats ? b.cal.score_heldout : b.cal.rmse_heldout; };
-  for (std::size_t i = 0; i < bases.size(); ++i)
-    if (bases[i].cal.status == "ok" && std::isfinite(score(bases[i])) &&
-        (!effects_only || engine::model_traits(bases[i].cal.model).info->effects) &&
-        (!allowed || (*allowed)[i]) &&
-        (best < 0 || score(bases[i]) < score(bases[static_cast<std::size_t>(best)])))
-      best = static_cast<int>(i);
-  return best;
-}
-
-namespace {
-
-/// A base and its held-out score, for the notes: "lugre (held-out RMSE 0.0312 N)".
-std::string held_text(const BaseFit& b, bool stats) {
-  char buf[48];
-  std::snprintf(buf, sizeof buf, stats ? "score %.4g" : "RMSE %.4g N", stats ? b.cal.score_heldout : b.cal.rmse_heldout);
-  return std::string(engine::to_string(b.cal.model)) + " (held-out " + buf + ")";
-}
-
-}  // namespace
-
 int base_for_causes(const Steps& st, const std::vector<BaseFit>& bases, std::string* note) {
-  note->clear();
-  const bool stats = st.P.stats;
-  std::vector<char> adequate(bases.size(), 0);
-  std::vector<std::string> miss(bases.size());
+  std::vector<BaseChoice> c(bases.size());
   for (std::size_t i = 0; i < bases.size(); ++i) {
-    if (bases[i].cal.status != "ok") continue;
-    const Adequacy a = judge_adequacy(st.Ps, bases[i], compare_stats(st.Ps, bases[i].stats, nullptr));
-    adequate[i] = a.verdict == "adequate";
-    if (!a.missing.empty()) miss[i] = a.missing.front();
+    const BaseFit& b = bases[i];
+    c[i].model = engine::to_string(b.cal.model);
+    c[i].effects = engine::model_traits(b.cal.model).info->effects;
+    if (b.cal.status != "ok") continue;
+    c[i].heldout = st.P.stats ? b.cal.score_heldout : b.cal.rmse_heldout;
+    const Adequacy a = judge_adequacy(st.Ps, b, compare_stats(st.Ps, b.stats, nullptr));
+    c[i].adequate = a.verdict == "adequate";
+    if (!a.missing.empty()) c[i].first_miss = a.missing.front();
   }
-  const int top = choose_base(bases, stats);
-  const int top_adequate = choose_base(bases, stats, false, &adequate);
-  const int best = top_adequate >= 0 ? top_adequate : top;
-  if (best != top)
-    *note = held_text(bases[static_cast<std::size_t>(top)], stats) + " fits best but is inadequate (" +
-            miss[static_cast<std::size_t>(top)] + "); the base is the best adequate model, " +
-            held_text(bases[static_cast<std::size_t>(best)], stats);
-  const BaseFit& b = bases[static_cast<std::size_t>(best)];
-  if (st.o.candidates.empty() || engine::model_traits(b.cal.model).info->effects) return best;
-  const std::string pre = best == top ? held_text(b, stats) + " fits best but takes no catalogue effect"
-                                       : *note + ", which takes no catalogue effect";
-  const int u = choose_base(bases, stats, /*effects_only=*/true, &adequate);
-  if (u >= 0) {
-    *note = pre + "; the candidates are tested on the best base that does, " +
-            held_text(bases[static_cast<std::size_t>(u)], stats);
-    return u;
-  }
-  const int any = choose_base(bases, stats, /*effects_only=*/true);
-  *note = pre + (any < 0 ? ", and no calibrated base that does: no candidate is tested"
-                         : "; the best that does, " + held_text(bases[static_cast<std::size_t>(any)], stats) +
-                               ", is inadequate: no candidate is tested");
-  return best;
+  return pick_base(c, !st.o.candidates.empty(), st.P.stats, note);
 }
 
 Evidence describe_base(const Steps& st, BaseFit* base, std::vector<BaseFit>* bases, int best,

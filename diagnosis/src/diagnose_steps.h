@@ -37,24 +37,8 @@ std::vector<RunReading> run_readings(const Problem& P);
 /// std::runtime_error when none could be.
 std::vector<BaseFit> calibrate_all(const Steps& st, Diagnosis* d);
 
-/// The best calibrated base: lowest held-out RMSE (time domain) or statistics score; with
-/// effects_only, the best of those that take catalogue effects (ModelInfo::effects); with
-/// allowed, the best of those with allowed[i] set. -1: none.
-int choose_base(const std::vector<BaseFit>& bases, bool stats, bool effects_only = false,
-                const std::vector<char>* allowed = nullptr);
-
-/// The base the diagnosis is built on.
-/// * The best calibrated base among those the adequacy verdict (judge_adequacy) accepts, and
-///   the best overall when it accepts none (the verdict is then inadequate). The held-out RMSE
-///   alone would prefer a smooth model when the slip phase drifts (a constant is not penalised
-///   twice, a shifted oscillation is): on a hidden drift, Dahl without any stick-slip (1.51 N)
-///   beat every stick-slip model (2.2-2.4 N) and the verdict was inadequate although they
-///   reproduce the drops. "Inadequate" means that no base model reproduces the record.
-/// * Candidates are catalogue effects, and a model without them (engine::ModelInfo::effects:
-///   rate_state, gms) cannot carry one. When candidates are asked for and that base is such a
-///   model, the base is the best adequate one that takes effects.
-/// `note` says when and why the base is not the lowest held-out score, with the held-out scores,
-/// and why no candidate can be tested; empty otherwise.
+/// The base the diagnosis is built on: pick_base (diagnose_adequacy.h) over the calibrated
+/// bases, each judged by judge_adequacy.
 int base_for_causes(const Steps& st, const std::vector<BaseFit>& bases, std::string* note);
 
 /// Step 2: the base's residual evidence (time domain; empty in statistics) and its parameters

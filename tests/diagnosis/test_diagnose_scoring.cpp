@@ -162,3 +162,45 @@ TEST(DiagnoseAdequacy, TheMeanLevelIsJudgedAgainstTheRunsForce) {
   EXPECT_NE(m_creep[0].find("regime stick_slip measured, creep predicted (no oscillation)"), std::string::npos)
       << m_creep[0];
 }
+
+// The base is the best adequate model on held-out data. On a hidden drift the slip phase drifts,
+// and the held-out RMSE, which penalises a shifted oscillation twice and a constant once,
+// preferred Dahl without any stick-slip; a model that reproduces the drops must win then.
+// "Inadequate" is the verdict only when no model is adequate.
+TEST(DiagnoseAdequacy, TheBaseIsTheBestAdequateModel) {
+  using detail::BaseChoice;
+  const BaseChoice dahl{"dahl", 1.51, false, "run1_va0 stage 1: drop size off by a factor 0.02", true};
+  const BaseChoice lugre{"lugre", 2.33, true, "", true};
+  const BaseChoice karnopp{"karnopp", 2.41, true, "", true};
+  const BaseChoice gms{"gms", 2.19, true, "", false};
+  const BaseChoice failed{"reset_integrator", std::nan(""), false, "", true};
+  std::string note;
+
+  EXPECT_EQ(detail::pick_base({dahl, lugre, karnopp, failed}, true, false, &note), 1);
+  EXPECT_NE(note.find("dahl (held-out RMSE 1.51 N) fits best but is inadequate (run1_va0 stage 1: drop size"),
+            std::string::npos) << note;
+  EXPECT_NE(note.find("the base is the best adequate model, lugre (held-out RMSE 2.33 N)"), std::string::npos) << note;
+
+  // gms is the best adequate model but takes no effect: the candidates go to lugre.
+  EXPECT_EQ(detail::pick_base({dahl, lugre, gms}, true, false, &note), 1);
+  EXPECT_NE(note.find("the best adequate model, gms (held-out RMSE 2.19 N), which takes no catalogue effect; "
+                      "the candidates are tested on the best base that does, lugre"),
+            std::string::npos) << note;
+  // Without candidates gms stays.
+  EXPECT_EQ(detail::pick_base({dahl, lugre, gms}, false, false, &note), 2);
+
+  // None adequate: the lowest held-out score, and the verdict will say inadequate.
+  BaseChoice lugre_bad = lugre;
+  lugre_bad.adequate = false;
+  EXPECT_EQ(detail::pick_base({lugre_bad, dahl}, true, true, &note), 1);
+  EXPECT_EQ(note, "");
+  // gms best and adequate, the only effect-taking model inadequate: gms, and why no candidate.
+  EXPECT_EQ(detail::pick_base({lugre_bad, gms}, true, true, &note), 1);
+  EXPECT_NE(note.find("gms (held-out score 2.19) fits best but takes no catalogue effect; the best that does, "
+                      "lugre (held-out score 2.33), is inadequate: no candidate is tested"),
+            std::string::npos) << note;
+  // Every one adequate: the lowest held-out score, no note.
+  EXPECT_EQ(detail::pick_base({karnopp, lugre}, true, false, &note), 1);
+  EXPECT_EQ(note, "");
+  EXPECT_EQ(detail::pick_base({failed}, true, false, &note), -1);
+}

@@ -12,6 +12,7 @@
 // `missing` says which, with the numbers.
 
 #include <cstddef>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -48,6 +49,29 @@ std::vector<StatsComparison> compare_stats(const Problem& P, const Evaluation& b
 
 /// The verdict on the chosen base (see above); cmp from compare_stats.
 Adequacy judge_adequacy(const Problem& P, const BaseFit& base, const std::vector<StatsComparison>& cmp);
+
+/// One calibrated base model as the choice of the base sees it.
+struct BaseChoice {
+  std::string model;         ///< its name
+  double heldout = std::numeric_limits<double>::quiet_NaN();  ///< held-out RMSE [N] or score [-]; NaN: not calibrated
+  bool adequate = false;     ///< judge_adequacy accepts it
+  std::string first_miss;    ///< the first thing it misses (Adequacy::missing), when inadequate
+  bool effects = true;       ///< takes catalogue effects (engine::ModelInfo::effects)
+};
+
+/// The base the diagnosis is built on (an index into c; -1 when no base was calibrated).
+/// * The lowest held-out score among the adequate bases; the lowest overall when none is adequate
+///   (the verdict is then inadequate: "inadequate" means that no base model reproduces the
+///   record). The held-out RMSE alone prefers a smooth model when the slip phase drifts: a
+///   shifted oscillation is penalised twice, a constant once. On a hidden drift Dahl, with no
+///   stick-slip at all, beat every stick-slip model (1.51 N against 2.2-2.4 N) although they
+///   reproduce the drops and it does not.
+/// * Candidates are catalogue effects, and a model without them (rate_state, gms) cannot carry
+///   one. When candidates are asked for and that base is such a model, the base is the best
+///   adequate one that takes effects, if there is one.
+/// `note` says when and why the base is not the lowest held-out score, with the scores, and why
+/// no candidate can be tested; empty otherwise. stats: the scores are statistics scores.
+int pick_base(const std::vector<BaseChoice>& c, bool candidates_asked, bool stats, std::string* note);
 
 /// The records' pooled per-sample noise sqrt(mean sigma^2) [N] and n / n_eff = (1 + rho) /
 /// (1 - rho) of their mean lag-1 correlation.
