@@ -333,13 +333,24 @@ struct RateStateImplicit {
   bool trusted(int mode, const Y& y0, const Y& y1) const noexcept {
     return mode == kSliding || std::fabs(y1[1] - y0[1]) <= 3.0;
   }
-  /// Time until the sliding event by linear extrapolation of v_r (where |v_r| falls), aiming at
-  /// |v_r| = v_eps/2, so that the step ends inside the band instead of being rejected across
-  /// the jump in friction at v_r = 0 [s]; infinite otherwise.
-  double time_to_event(int mode, const Y& y, const Y& f, const BaseMotion& b) const noexcept {
+  /// Time until the sliding event where |v_r| falls, aiming at |v_r| = v_eps/2, so that the
+  /// step ends inside the band instead of being rejected across the jump in friction at
+  /// v_r = 0 [s]; infinite otherwise. By linear extrapolation of v_r, or quadratic (fd = dy'/dt:
+  /// the jerk) where the deceleration grows and that comes sooner: a vibrating base drives v_r
+  /// through zero with a growing deceleration, and the linear aim crossed zero (4 mm/s, rtol
+  /// 1e-4: 55k rejections, 10k with this). Where the deceleration weakens (v_r settling to a
+  /// balance) the quadratic aim, later, ended steps deeper in the steep law: more rejections.
+  double time_to_event(int mode, const Y& y, const Y& f, const Y& fd,
+                       const BaseMotion& b) const noexcept {
     if (mode != kSliding) return HUGE_VAL;
     const double v_r = y[1] - b.ub, a_r = f[1] - b.ab;
-    return v_r * a_r < 0.0 ? (std::fabs(v_r) - 0.5 * v_eps) / std::fabs(a_r) : HUGE_VAL;
+    if (!(v_r * a_r < 0.0)) return HUGE_VAL;
+    // In the direction of v_r: |v_r| - aim - |a_r| t + j t^2/2 = 0, j the jerk along v_r.
+    const double gap = std::fabs(v_r) - 0.5 * v_eps, acc = std::fabs(a_r);
+    const double t_lin = gap / acc, j = std::copysign(1.0, v_r) * (fd[1] - b.jb);
+    const double disc = acc * acc - 2.0 * j * gap;
+    if (gap <= 0.0 || !(j < 0.0 && disc >= 0.0)) return t_lin;
+    return 2.0 * gap / (acc + std::sqrt(disc));  // the smaller positive root, stably
   }
   struct Jump {
     int mode;
