@@ -100,7 +100,7 @@ class RosenbrockStepper {
       }
       double h = std::min(h_, opt_.dt_max);
       // End the step just past a predicted event rather than have it rejected across the event.
-      const double t_ev = sys_.time_to_event(mode_, arr(y_), arr(f0_), b0_);
+      const double t_ev = sys_.time_to_event(mode_, arr(y_), arr(f0_), arr(J_ * f0_ + ft_), b0_);
       if (t_ev < h) h = std::max(t_ev, 1e-12);
       const bool last = t_ + h >= t1 * (1.0 - 1e-15) - 1e-15;
       if (last) h = t1 - t_;

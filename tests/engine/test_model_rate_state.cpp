@@ -82,6 +82,24 @@ TEST(RateState, RegularisedLawIsThePlainLawAwayFromZero) {
   }
 }
 
+// mu and its derivatives against the closed forms a asinh(v/c), a/sqrt(v^2 + c^2) and
+// z/sqrt(1 + z^2) (z = v/c) across the branches of RateState::mu (glibc's asinh, the series in
+// z^-2 for ln z > 9, the asymptote beyond ln z = 20), to 1e-14 relative (the series term u/4
+// is 1e-9 relative at ln z = 9).
+TEST(RateState, LawAndDerivativesMatchClosedFormsOnEveryBranch) {
+  const RateState m = make_model<RateState>(config("aging"));
+  for (double psi : {0.15, 0.231}) {
+    const double c = 2 * m.V0 * std::exp(-psi / m.a);
+    for (double lz = -3.0; lz <= 26.0; lz += 0.37) {
+      const double v = c * std::exp(lz), z = v / c;
+      const RateState::Mu u = m.mu(v, psi);
+      EXPECT_NEAR(u.mu, m.a * std::asinh(z), 1e-14 * m.a * std::asinh(z)) << lz;
+      EXPECT_NEAR(u.d_dv, m.a / std::hypot(v, c), 1e-14 * m.a / std::hypot(v, c)) << lz;
+      EXPECT_NEAR(u.d_dpsi, z / std::sqrt(1 + z * z), 1e-14) << lz;
+    }
+  }
+}
+
 // Steady sliding from long constant-velocity runs of the engine: a drive 100x stiffer than the
 // critical stiffness holds the body at the drive velocity V, and the mean friction over the
 // last 60 % (10-30 mm/s of slip ... 50 D_c after the transient) is F_N mu_ss(V),

@@ -294,8 +294,10 @@ struct ImplicitLinear {
 ///     double event(int mode, const std::array<double, N>& y0, const BaseMotion& b0, double t,
 ///                  const std::array<double, N>& y, const BaseMotion& b) const;
 ///     // The predicted time until the mode's event (infinite: none): the step ends there.
+///     // f = y' and fd = y'' (J f + f_t) at y.
 ///     double time_to_event(int mode, const std::array<double, N>& y,
-///                          const std::array<double, N>& f, const BaseMotion& b) const;
+///                          const std::array<double, N>& f, const std::array<double, N>& fd,
+///                          const BaseMotion& b) const;
 ///     // The lowest event value accepted where an event is located (-inf: any).
 ///     double event_floor(int mode) const;
 ///     struct Jump { int mode; double dt; };
