@@ -15,6 +15,7 @@
 #include <set>
 #include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include "stickslip/engine/registry.h"
@@ -82,19 +83,28 @@ RunSummary run_new(const fs::path& db, const StudySpec& spec, RunnerOptions opt 
   return run_study(db, st.id, spec, opt);
 }
 
-TEST(Runner, ResultsAreBitwiseIdenticalForOneAndTwoThreadsAndMatchTheEngine) {
-  TempDir dir;
-  const StudySpec spec = parse_ok(kSmallGrid);
+/// The study run into two new stores in dir, on 1 and on 2 threads (each must complete), and
+/// the runs of each; *computed: the runs the first computed.
+std::pair<std::vector<store::RunRecord>, std::vector<store::RunRecord>> on_one_and_two_threads(
+    const fs::path& dir, const StudySpec& spec, int* computed = nullptr) {
   std::string id1, id2;
   RunnerOptions one, two;
   one.threads = 1;
   two.threads = 2;
   const RunSummary s1 = run_new(dir / "one.db", spec, one, &id1);
   const RunSummary s2 = run_new(dir / "two.db", spec, two, &id2);
-  ASSERT_EQ(s1.outcome, RunOutcome::kCompleted) << s1.error;
-  ASSERT_EQ(s2.outcome, RunOutcome::kCompleted) << s2.error;
-  EXPECT_EQ(s1.computed, 8);
-  const auto a = all_runs(dir / "one.db", id1), b = all_runs(dir / "two.db", id2);
+  EXPECT_EQ(s1.outcome, RunOutcome::kCompleted) << s1.error;
+  EXPECT_EQ(s2.outcome, RunOutcome::kCompleted) << s2.error;
+  if (computed != nullptr) *computed = s1.computed;
+  return {all_runs(dir / "one.db", id1), all_runs(dir / "two.db", id2)};
+}
+
+TEST(Runner, ResultsAreBitwiseIdenticalForOneAndTwoThreadsAndMatchTheEngine) {
+  TempDir dir;
+  const StudySpec spec = parse_ok(kSmallGrid);
+  int computed = 0;
+  const auto [a, b] = on_one_and_two_threads(dir.path(), spec, &computed);
+  EXPECT_EQ(computed, 8);
   ASSERT_EQ(a.size(), 8u);
   ASSERT_EQ(b.size(), 8u);
   for (std::size_t i = 0; i < a.size(); ++i) expect_same_results(a[i], b[i]);
@@ -126,15 +136,7 @@ TEST(Runner, EveryModelsResultsAreTheSameForOneAndTwoThreads) {
   const StudySpec spec = parse_ok(R"({"name": "every-model", "stages": [{"duration": 1.2}, {"duration": 0.4}],
     "design": {"type": "grid", "axes": [{"name": "model", "values": [)" + models + R"(]},
                                         {"name": "va_over_vd", "values": [0, 11]}]}})");
-  std::string id1, id2;
-  RunnerOptions one, two;
-  one.threads = 1;
-  two.threads = 2;
-  const RunSummary s1 = run_new(dir / "1.db", spec, one, &id1);
-  const RunSummary s2 = run_new(dir / "2.db", spec, two, &id2);
-  ASSERT_EQ(s1.outcome, RunOutcome::kCompleted) << s1.error;
-  ASSERT_EQ(s2.outcome, RunOutcome::kCompleted) << s2.error;
-  const auto a = all_runs(dir / "1.db", id1), b = all_runs(dir / "2.db", id2);
+  const auto [a, b] = on_one_and_two_threads(dir.path(), spec);
   ASSERT_EQ(a.size(), 2 * engine::all_models().size());
   ASSERT_EQ(b.size(), a.size());
   std::set<std::string> seen;
