@@ -95,7 +95,10 @@ std::string range_keywords(const Interval& in) {
   if (in.hi != inf)
     out += std::string(", \"") + (in.hi_open ? "exclusiveMaximum" : "maximum") + "\": " +
            number(in.hi);
-  if (in.integer) out += ", \"multipleOf\": 1";
+  // 1.0, not 1: valijson checks an integer divisor by casting the value to int64_t, which is
+  // undefined for values beyond its range (fuzz_study_spec: "levels": 4.3e53); a double divisor
+  // takes its remainder() path.
+  if (in.integer) out += ", \"multipleOf\": 1.0";
   return out;
 }
 
