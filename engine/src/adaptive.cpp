@@ -155,11 +155,9 @@ struct HybridSys {
     return m;
   }
   Mode enter(Mode from, Mode to, const Plant& p, double t, State& y) const noexcept {
-    const Mode m = hyb.settle(from, to, point(p, t, y));
-    hyb.on_enter(m, point(p, t, y), y, from);
-    return m;
+    return enter_at(from, to, point(p, t, y), y);
   }
-  /// The same at the point pt of y, for a hybrid form whose on_enter leaves x and x' alone.
+  /// The same at the point pt of y.
   Mode enter_at(Mode from, Mode to, const Point& pt, State& y) const noexcept {
     const Mode m = hyb.settle(from, to, pt);
     hyb.on_enter(m, pt, y, from);
@@ -464,27 +462,28 @@ inline double take_switch(RunContext& ctx, StageAccumulator& acc, const Sys& sys
     StepOut ob;
     const double b = locate_in_step(q, ob);
     t_new = (b == hh) ? t_new : s.t + b;
+    // GMS (kReversals): one point at the switch (base motion by angle addition; entering a mode
+    // changes element forces only) for the event, the old mode's forces there and the new
+    // mode's. Karnopp and the Reset Integrator take it from the plant, after on_enter too.
+    Point pt{};
     if constexpr (Sys::kReversals) {
-      // GMS: one point at the switch (base motion by angle addition; entering a mode changes
-      // element forces only) for the event, the old mode's forces there and the new mode's.
-      const Point pt = q.point_at(b, ob.y);
+      pt = q.point_at(b, ob.y);
       sys.event_at(pt, ob.y, s.mode, &next);
       if (b < hh) ob.k_end = sys.eval_at(p, pt, ob.y, s.mode);
-      out = ob;
-      y = out.y;
-      record_sample(ctx, acc, sys, t_new, out.k_end, y);  // the old mode's forces (F_f jumps)
-      s.mode = sys.enter_at(s.mode, next, pt, y);
-      out.y = y;
-      out.k_end = sys.eval_at(p, pt, y, s.mode);
     } else {
       sys.event(p, s.t + b, ob.y, s.mode, &next);
-      out = ob;
-      y = out.y;
-      record_sample(ctx, acc, sys, t_new, out.k_end, y);  // the old mode's forces (F_f jumps)
+    }
+    out = ob;
+    y = out.y;
+    record_sample(ctx, acc, sys, t_new, out.k_end, y);  // the old mode's forces (F_f jumps)
+    if constexpr (Sys::kReversals) {
+      s.mode = sys.enter_at(s.mode, next, pt, y);
+      out.k_end = sys.eval_at(p, pt, y, s.mode);
+    } else {
       s.mode = sys.enter(s.mode, next, p, t_new, y);
-      out.y = y;  // keep the projection onto the new mode's set (on_enter)
       out.k_end = sys.eval(p, t_new, y, s.mode);
     }
+    out.y = y;  // keep the projection onto the new mode's set (on_enter)
     ++ctx.result.switches;
     s.zero_switches = b < 1e-9 * hh ? s.zero_switches + 1 : 0;
     // GMS: the cut step's error says nothing of the new mode (an element entering slip relaxes at

@@ -21,6 +21,8 @@
 #include <filesystem>
 #include <fstream>
 
+#include <unistd.h>
+
 #include <nlohmann/json.hpp>
 
 #include "stickslip/diagnosis/diagnose.h"
