@@ -204,7 +204,19 @@ int pick_base(const std::vector<BaseChoice>& c, bool candidates_asked, bool stat
   const int e = lowest(c, [](const BaseChoice& x) { return x.effects; });
   *note = pre + (e < 0 ? ", and no calibrated base that does: no candidate is tested"
                        : "; the best that does, " + held_text(c[static_cast<std::size_t>(e)], stats) +
-                             ", is inadequate: no candidate is tested");
+                             ", is inadequate");
+  return best;
+}
+
+int pick_carrier(const std::vector<BaseChoice>& c, int base) {
+  if (base >= 0 && static_cast<std::size_t>(base) < c.size() && c[static_cast<std::size_t>(base)].effects &&
+      std::isfinite(c[static_cast<std::size_t>(base)].heldout))
+    return base;
+  int best = -1;
+  for (std::size_t i = 0; i < c.size(); ++i)
+    if (c[i].effects && std::isfinite(c[i].heldout) && std::isfinite(c[i].stats_score) &&
+        (best < 0 || c[i].stats_score < c[static_cast<std::size_t>(best)].stats_score))
+      best = static_cast<int>(i);
   return best;
 }
 

@@ -118,7 +118,8 @@ nlohmann::json adequacy_json(const Adequacy& a) {
           {"rmse_constant_heldout", common::json_number(a.rmse_constant_heldout)},
           {"rmse_base_heldout", common::json_number(a.rmse_base_heldout)},
           {"score_constant_heldout", common::json_number(a.score_constant_heldout)},
-          {"score_base_heldout", common::json_number(a.score_base_heldout)}};
+          {"score_base_heldout", common::json_number(a.score_base_heldout)},
+          {"extended_verdict", a.extended_verdict}};
 }
 
 nlohmann::json identifiability_json(const std::vector<ParamStatus>& ps) {
@@ -203,6 +204,7 @@ nlohmann::json candidates_json(const Diagnosis& d) {
                      {"p_holm", common::json_number(c.p_holm)},
                      {"significant", c.significant},
                      {"at_base_point", c.at_base_point},
+                     {"adequacy", c.adequacy},
                      {"score_fit", common::json_number(c.score_fit)},
                      {"score_heldout", common::json_number(c.score_heldout)},
                      {"evaluations", c.evals}});

@@ -65,6 +65,10 @@ void summary_adequacy(const Diagnosis& d, std::ostringstream& s) {
                 a.score_base_heldout, a.score_constant_heldout);
   s << line;
   for (const auto& m : a.missing) s << "  missing: " << m << "\n";
+  if (a.extended_verdict == "adequate")
+    s << "  the named cause's extended model is adequate: the record is reproduced with the effect\n";
+  else if (a.extended_verdict == "inadequate")
+    s << "  no candidate both passes the tests and makes the model adequate: no cause is named\n";
   s << "statistics (measured / base / extended; fitted parts):\n"
     << "  run              regime                          mean [N]               median drop [N]          drops/s\n";
   for (const auto& c : d.statistics) {
@@ -126,6 +130,7 @@ void summary_candidates(const Diagnosis& d, std::ostringstream& s) {
       s << line;
     }
     if (c.status != "ok") s << "  " << c.status;
+    if (!c.adequacy.empty()) s << "  extended model " << c.adequacy;
     s << "\n";
   }
   std::snprintf(line, sizeof line, "cause: %s  (held-out %s %.4f -> %.4f, gain %.3f)\n", d.cause.c_str(),

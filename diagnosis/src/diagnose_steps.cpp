@@ -215,7 +215,7 @@ std::vector<BaseFit> calibrate_all(const Steps& st, Diagnosis* /*d*/) {
   return bases;
 }
 
-int base_for_causes(const Steps& st, const std::vector<BaseFit>& bases, std::string* note) {
+int base_for_causes(const Steps& st, const std::vector<BaseFit>& bases, std::string* note, int* carrier) {
   std::vector<BaseChoice> c(bases.size());
   for (std::size_t i = 0; i < bases.size(); ++i) {
     const BaseFit& b = bases[i];
@@ -223,11 +223,14 @@ int base_for_causes(const Steps& st, const std::vector<BaseFit>& bases, std::str
     c[i].effects = engine::model_traits(b.cal.model).info->effects;
     if (b.cal.status != "ok") continue;
     c[i].heldout = st.P.stats ? b.cal.score_heldout : b.cal.rmse_heldout;
+    c[i].stats_score = b.cal.score_heldout;
     const Adequacy a = judge_adequacy(st.Ps, b, compare_stats(st.Ps, b.stats, nullptr));
     c[i].adequate = a.verdict == "adequate";
     if (!a.missing.empty()) c[i].first_miss = a.missing.front();
   }
-  return pick_base(c, !st.o.candidates.empty(), st.P.stats, note);
+  const int best = pick_base(c, !st.o.candidates.empty(), st.P.stats, note);
+  *carrier = pick_carrier(c, best);
+  return best;
 }
 
 Evidence describe_base(const Steps& st, BaseFit* base, std::vector<BaseFit>* bases, int best,
@@ -308,12 +311,50 @@ int best_candidate_index(const std::vector<CandFit>& cands, bool stats) {
   return best;
 }
 
+Adequacy judge_extension(const Steps& st, const BaseFit& base, const CandFit& c) {
+  BaseFit ext = base;  // the extended model in the place of the base
+  ext.stats = st.P.stats ? c.full : evaluate(st.Ps, c.model, c.theta, Span::kStats, 0);
+  if (!ext.stats.ok) {
+    Adequacy a;
+    a.verdict = "inadequate";
+    a.missing.push_back("its statistics could not be simulated: " + ext.stats.reason);
+    return a;
+  }
+  ext.cal.rmse_heldout = c.res.rmse_heldout;
+  ext.cal.score_heldout = rms(ext.stats.sse_held, ext.stats.n_held);
+  return judge_adequacy(st.Ps, ext, compare_stats(st.Ps, ext.stats, nullptr));
+}
+
+namespace {
+
+/// need_adequate of test_and_name: every significant candidate's extended model is judged, and
+/// one that is inadequate is not significant (its CandidateResult::adequacy says why).
+void require_adequate_extensions(const Steps& st, const BaseFit& base, std::vector<CandFit>* cands) {
+  std::vector<std::size_t> sig;
+  for (std::size_t i = 0; i < cands->size(); ++i)
+    if ((*cands)[i].res.significant) sig.push_back(i);
+  std::vector<Adequacy> a(sig.size());
+#pragma omp parallel for schedule(dynamic, 1) num_threads(st.threads)
+  for (std::size_t j = 0; j < sig.size(); ++j) a[j] = judge_extension(st, base, (*cands)[sig[j]]);
+  for (std::size_t j = 0; j < sig.size(); ++j) {
+    CandidateResult& r = (*cands)[sig[j]].res;
+    r.adequacy = a[j].verdict;
+    if (a[j].verdict != "adequate") {
+      r.significant = false;
+      r.adequacy += ": " + a[j].missing.front();
+    }
+  }
+}
+
+}  // namespace
+
 int test_and_name(const Steps& st, BaseFit* base, BaseFit* slot, std::vector<CandFit>* cands,
-                  const Evidence& ev, Diagnosis* d) {
+                  const Evidence& ev, bool need_adequate, Diagnosis* d) {
   const bool stats = st.P.stats;
   significance(*cands, *base, st.P, st.o);
   // An extension must beat a fully refitted base (step 4 of diagnose.h).
   if (refit_base(st, base, slot, cands, ev.n_eff)) significance(*cands, *base, st.P, st.o);
+  if (need_adequate) require_adequate_extensions(st, *base, cands);
   st.check_stop();
   // Among the significant candidates (each already beats the refitted base on held-out data by
   // min_gain), the time domain's cause is the one with the lowest information criterion on the fit

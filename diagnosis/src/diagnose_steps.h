@@ -38,8 +38,9 @@ std::vector<RunReading> run_readings(const Problem& P);
 std::vector<BaseFit> calibrate_all(const Steps& st, Diagnosis* d);
 
 /// The base the diagnosis is built on: pick_base (diagnose_adequacy.h) over the calibrated
-/// bases, each judged by judge_adequacy.
-int base_for_causes(const Steps& st, const std::vector<BaseFit>& bases, std::string* note);
+/// bases, each judged by judge_adequacy. *carrier: pick_carrier's model for the candidates when
+/// the base cannot carry them on an adequate footing (-1: none takes effects).
+int base_for_causes(const Steps& st, const std::vector<BaseFit>& bases, std::string* note, int* carrier);
 
 /// Step 2: the base's residual evidence (time domain; empty in statistics) and its parameters
 /// with standard errors, Jacobian rank and condition; the other bases' parameters.
@@ -52,9 +53,15 @@ std::vector<CandFit> fit_candidates(const Steps& st, const BaseFit& base, const 
 
 /// Step 4b: significance against the base, the base refitted from every significant candidate
 /// (the better refit becomes the null and the tests are redone), and the cause. base and *slot
-/// (its entry among the calibrations) are updated. Returns the cause's index, or -1.
+/// (its entry among the calibrations) are updated. need_adequate (the base is inadequate): a
+/// significant candidate is nameable only when its extended model is adequate
+/// (CandidateResult::adequacy). Returns the cause's index, or -1.
 int test_and_name(const Steps& st, BaseFit* base, BaseFit* slot, std::vector<CandFit>* cands,
-                  const Evidence& ev, Diagnosis* d);
+                  const Evidence& ev, bool need_adequate, Diagnosis* d);
+
+/// A candidate's extended model judged as a base is (judge_adequacy on its own statistics, its
+/// held-out RMSE and score against the trivial predictors).
+Adequacy judge_extension(const Steps& st, const BaseFit& base, const CandFit& c);
 
 /// The candidate with the lowest held-out RMSE (statistics: score); -1 when none is ok.
 int best_candidate_index(const std::vector<CandFit>& cands, bool stats);

@@ -8,6 +8,7 @@
 
 #include <cmath>
 
+#include "stickslip/common/json_schema.h"
 #include "stickslip/diagnosis/detail/diagnose_adequacy.h"
 #include "stickslip/diagnosis/diagnose.h"
 #include "stickslip/diagnosis/diagnose_suite.h"
@@ -197,10 +198,65 @@ TEST(DiagnoseAdequacy, TheBaseIsTheBestAdequateModel) {
   // gms best and adequate, the only effect-taking model inadequate: gms, and why no candidate.
   EXPECT_EQ(detail::pick_base({lugre_bad, gms}, true, true, &note), 1);
   EXPECT_NE(note.find("gms (held-out score 2.19) fits best but takes no catalogue effect; the best that does, "
-                      "lugre (held-out score 2.33), is inadequate: no candidate is tested"),
+                      "lugre (held-out score 2.33), is inadequate"),
             std::string::npos) << note;
   // Every one adequate: the lowest held-out score, no note.
   EXPECT_EQ(detail::pick_base({karnopp, lugre}, true, false, &note), 1);
   EXPECT_EQ(note, "");
   EXPECT_EQ(detail::pick_base({failed}, true, false, &note), -1);
+}
+
+// When no adequate model can carry the candidates, they go to the carrier: the base itself when
+// it takes effects, else the effect-taking model whose held-out statistics are closest to the
+// record's, not the one with the lowest held-out RMSE (a hidden drift: Dahl, with no stick-slip,
+// has the lowest RMSE and statistics worse than no stick-slip at all).
+TEST(DiagnoseAdequacy, TheCarrierOfTheCandidatesHasTheClosestStickSlipStatistics) {
+  using detail::BaseChoice;
+  BaseChoice dahl{"dahl", 1.51, false, "no stick-slip", true};
+  dahl.stats_score = 6.86;
+  BaseChoice lugre{"lugre", 2.33, false, "mean level off", true};
+  lugre.stats_score = 1.57;
+  BaseChoice karnopp{"karnopp", 2.41, false, "mean level off", true};
+  karnopp.stats_score = 1.91;
+  BaseChoice gms{"gms", 2.24, true, "", false};
+  gms.stats_score = 1.47;
+  BaseChoice failed{"reset_integrator", std::nan(""), false, "", true};
+  failed.stats_score = 0.5;  // not calibrated: never the carrier, whatever its score
+
+  // gms (index 3) takes no effect: lugre, the lowest statistics score among those that do.
+  EXPECT_EQ(detail::pick_carrier({dahl, lugre, karnopp, gms, failed}, 3), 1);
+  // An inadequate base that takes effects carries them itself, even with a worse score.
+  EXPECT_EQ(detail::pick_carrier({dahl, lugre, karnopp, gms}, 2), 2);
+  // No calibrated model takes effects: none.
+  EXPECT_EQ(detail::pick_carrier({gms, failed}, 0), -1);
+}
+
+// A hidden drift large enough that no base carries the level: on the still run the friction
+// falls 30 % over 10 mm of sliding (gamma = -30 /m), so the base misses the second stage's mean
+// by more than 25 % of the run's level and is inadequate. The candidates are still fitted on it,
+// and drift is named because its extended model is adequate; viscous, which cannot carry a
+// falling level, is not named. diagnosis.json carries both verdicts and stays valid.
+TEST(DiagnoseAdequacy, AnEffectThatMakesTheBaseInadequateIsNamedWhenItsExtendedModelIsAdequate) {
+  HiddenCase c = hidden_case("drift");
+  c.value = -30.0;         // drift_gamma [1/m]
+  c.own_va = {0.0, 4e-3};  // [m/s]: one run still throughout, as the seed's first run
+  c.own_t_on = 5.0;        // [s]
+  c.own_duration = 10.0;   // [s], at v_d = 1 mm/s
+  const measured::MeasuredDataset data = measured::synthesize(hidden_case_dataset(c, 1000, SuiteDatasets::kCi));
+  DiagnoseOptions o = hidden_case_options(SuiteDatasets::kCi);
+  o.candidates = {engine::ExtensionKind::kDrift, engine::ExtensionKind::kViscous};
+  o.whole_run_holdout = false;
+  const Diagnosis d = diagnose(data, o);
+  ASSERT_EQ(d.adequacy.verdict, "inadequate") << summary_text(d);
+  EXPECT_EQ(d.cause, "drift") << summary_text(d);
+  EXPECT_EQ(d.adequacy.extended_verdict, "adequate");
+  ASSERT_EQ(d.candidates.size(), 2u);
+  EXPECT_EQ(d.candidates[0].adequacy, "adequate");
+  EXPECT_NEAR(d.candidates[0].params[0].value, -30.0, 3.0);
+  EXPECT_FALSE(d.candidates[1].significant);
+  const nlohmann::json j = to_json(d);
+  EXPECT_EQ(j["adequacy"]["extended_verdict"], "adequate");
+  EXPECT_EQ(j["candidates"][0]["adequacy"], "adequate");
+  const auto errors = common::validate_against_schema(j, nlohmann::json::parse(diagnosis_schema_text()));
+  EXPECT_TRUE(errors.empty()) << common::to_string(errors);
 }

@@ -184,6 +184,10 @@ struct CandidateResult {
   bool at_base_point = false;
   int evals = 0;
   double score_fit = 0, score_heldout = 0;  ///< statistics scores, as BaseCalibration's [-]
+  /// On an inadequate base only: the verdict on the extended model of a candidate that passed
+  /// the tests, "adequate" or "inadequate: <what it misses>"; only an adequate one is named.
+  /// Empty when not judged.
+  std::string adequacy;
 };
 
 /// Mean residual in equal-count bins of one variable, for the base model and the extended one
@@ -264,6 +268,9 @@ struct Adequacy {
   double rmse_base_heldout = 0;      ///< the chosen base, the same samples [N]
   double score_constant_heldout = 0; ///< statistics score of no stick-slip (a constant) [-]
   double score_base_heldout = 0;     ///< the chosen base's [-]
+  /// When the base is inadequate and candidates were fitted on it: "adequate" when a named
+  /// cause's extended model is adequate, "inadequate" when no candidate's is; empty otherwise.
+  std::string extended_verdict;
 };
 
 /// A calibrated model as `stickslip validate` rebuilds it: every parameter of the base model

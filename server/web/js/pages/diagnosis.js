@@ -110,6 +110,14 @@ export async function render(main, [id], query, alive) {
   };
 }
 
+// The base's verdict and, on an inadequate base, whether the named cause's extended model is
+// adequate (adequacy.extended_verdict).
+function verdictText(r) {
+  if (typeof r.verdict !== "string") return JSON.stringify(r.verdict);
+  const ext = r.adequacy && r.adequacy.extended_verdict;
+  return ext ? r.verdict + " base; with a catalogue effect: " + ext : r.verdict;
+}
+
 function verdictCard(r) {
   const none = r.cause === "none";
   const gain = Number.isFinite(r.gain) ? Math.round(r.gain * 1000) / 10 + " %" : "–";
@@ -118,7 +126,7 @@ function verdictCard(r) {
     { class: "card", id: "verdict" },
     h("h2", null, "Verdict"),
     h("div", { class: "verdict" + (none ? " none" : ""), id: "cause" }, none ? "No cause named: " : "Named cause: ", h("strong", { id: "cause-name" }, r.cause)),
-    r.verdict !== undefined ? h("p", { id: "verdict-text" }, typeof r.verdict === "string" ? r.verdict : JSON.stringify(r.verdict)) : null,
+    r.verdict !== undefined ? h("p", { id: "verdict-text" }, verdictText(r)) : null,
     kv([
       ["dataset", r.dataset],
       ["base model", r.base_note ? r.base_model + " (" + r.base_note + ")" : r.base_model],

@@ -57,6 +57,8 @@ struct BaseChoice {
   bool adequate = false;     ///< judge_adequacy accepts it
   std::string first_miss;    ///< the first thing it misses (Adequacy::missing), when inadequate
   bool effects = true;       ///< takes catalogue effects (engine::ModelInfo::effects)
+  /// Held-out statistics score [-] (every scoring has one); NaN: not calibrated.
+  double stats_score = std::numeric_limits<double>::quiet_NaN();
 };
 
 /// The base the diagnosis is built on (an index into c; -1 when no base was calibrated).
@@ -72,6 +74,14 @@ struct BaseChoice {
 /// `note` says when and why the base is not the lowest held-out score, with the scores, and why
 /// no candidate can be tested; empty otherwise. stats: the scores are statistics scores.
 int pick_base(const std::vector<BaseChoice>& c, bool candidates_asked, bool stats, std::string* note);
+
+/// The model that carries the candidates when no adequate model can (the base `base` is
+/// inadequate, or it takes no catalogue effect and no adequate model that does exists): the base
+/// itself when it takes effects, else the effect-taking model whose held-out statistics are
+/// closest to the record's (lowest stats_score: the stick-slip a catalogue effect is to correct,
+/// not the held-out RMSE, which prefers a smooth model with no stick-slip when the slip phase
+/// drifts). -1: no calibrated model takes effects.
+int pick_carrier(const std::vector<BaseChoice>& c, int base);
 
 /// The records' pooled per-sample noise sqrt(mean sigma^2) [N] and n / n_eff = (1 + rho) /
 /// (1 - rho) of their mean lag-1 correlation.
