@@ -518,6 +518,8 @@ inline bool adaptive_stage(RunContext& ctx, const Sys& sys,
     const LawsonFactor f = lawson_factor(sys, p, y, hh, vr0, s);
     StepOut out = dp5_step(sys, p, s.t, y, s.k1, hh, s.mode, f.L, es, &s.base,
                            Sys::kEvents ? &s.kst : nullptr, f.s_eq);
+    if constexpr (Sys::kEvents && Sys::kReversals)  // GMS: see kReversalErrorWeight
+      if (vr0 * (out.y.v - s.base.ub[kStages - 1]) <= 0.0) out.err *= kReversalErrorWeight;
     if (!(out.err <= 1.0)) {  // also catches NaN
       if (!reject_step(ctx, p, s, y, out.err, hh, h)) return false;
       continue;
