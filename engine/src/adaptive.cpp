@@ -502,6 +502,8 @@ inline bool adaptive_stage(RunContext& ctx, const Sys& sys,
                            double t1, StageAccumulator& acc, typename Sys::State& y, double& h) {
   using StepOut = StepOutT<typename Sys::State>;
   const IntegratorOptions& opt = ctx.cfg.integrator;
+  const double dt_max = stage_dt_max<Sys>(ctx.cfg, p);
+  h = std::min(h, dt_max);  // a still stage's longer step does not carry into a vibrating one
   StageLoop<Sys> s(sys, p, t0, y, ctx);
   record_sample(ctx, acc, sys, s.t, s.k1, y);
   while (s.t < t1) {
@@ -536,7 +538,7 @@ inline bool adaptive_stage(RunContext& ctx, const Sys& sys,
       return false;
     }
     record_sample(ctx, acc, sys, s.t, s.k1, y);
-    h = pi_step(s, out.err, hh, opt.dt_max);
+    h = pi_step(s, out.err, hh, dt_max);
     if constexpr (Sys::kReversals) {
       if (vr0 * (y.v - s.base.ub[kStages - 1]) <= 0.0) s.h_rev = h;  // this step reversed v_r
     }
