@@ -17,7 +17,8 @@
 // that odeint expects as a user functor anyway.
 //
 // Error control: the embedded error of each component weighted into force units (the system's
-// error_weights()), max-norm, against atol + rtol F_ref (F_ref: the model's force_scale()).
+// error_weights() at the step's start: a weight may depend on the state), max-norm, against
+// atol + rtol F_ref (F_ref: the model's force_scale()).
 // Modes: the system may advance its state in several charts (modes) with events between them
 // (rate-and-state: the velocity while sliding, mu/a near stick). After an accepted step whose
 // end point leaves the mode (event < 0) the event is located on the cubic Hermite interpolant
@@ -150,11 +151,7 @@ class RosenbrockStepper {
     for (int i = 0; i < N; ++i) v[i] = a[static_cast<std::size_t>(i)];
     return v;
   }
-  void set_mode(int mode) {
-    mode_ = mode;
-    const Arr w = sys_.error_weights(mode);
-    for (int i = 0; i < N; ++i) weight_[i] = w[static_cast<std::size_t>(i)] * inv_tol_;
-  }
+  void set_mode(int mode) { mode_ = mode; }
   /// u', u'', u''' from the phase's cosine and sine: u' = v_a cos(w (t - t0)).
   BaseMotion motion(double c, double s) const noexcept {
     return {v_a_ * c, -v_a_ * w_ * s, -v_a_ * w_ * w_ * c};
@@ -194,8 +191,10 @@ class RosenbrockStepper {
       y_ = vec(a);
     }
   }
-  /// f, J and f_t at the current (t_, y_), and the forces there.
+  /// f, J and f_t at the current (t_, y_), the forces and the error weights there.
   void linearise() {
+    const Arr w = sys_.error_weights(mode_, arr(y_), b0_);
+    for (int i = 0; i < N; ++i) weight_[i] = w[static_cast<std::size_t>(i)] * inv_tol_;
     const ImplicitLinear<N> l = sys_.linearise(mode_, t_, arr(y_), b0_);
     F_d_ = l.F_d;
     F_f_ = l.F_f;

@@ -260,3 +260,28 @@ TEST(RateState, NormalLoadIsACondition) {
     EXPECT_EQ(e.field(), "F_z");
   }
 }
+
+// Under a weak vibration (0.2 mm/s) the body sticks and slips within each base period; the
+// sliding steps at small |v_r| (out of the band and into it) set the friction there, and their
+// velocity error is weighed by the friction error it causes. The F_d trace at a loose tolerance
+// must follow a tight one: with the velocity weighed by the drive impedance alone it drifted
+// off (the stick-slip phase, growing over the stage; 5.5e-2 of F_ref over the seed's 10 s).
+TEST(RateState, WeakVibrationTraceAtALooseToleranceFollowsATightOne) {
+  auto run = [](double rtol) {
+    SimConfig c = config("aging");
+    c.stages = {Stage{1.0, 0.0, 1500.0}, Stage{1.5, 0.2e-3, 1500.0}};
+    c.integrator.rtol = c.integrator.atol = rtol;
+    c.trace.rate = 2000.0;
+    return simulate(c);
+  };
+  const SimResult loose = run(1e-4), tight = run(1e-8);
+  ASSERT_EQ(loose.status, RunStatus::kOk) << loose.reason;
+  ASSERT_EQ(tight.status, RunStatus::kOk) << tight.reason;
+  ASSERT_EQ(loose.trace.size(), tight.trace.size());
+  double sum = 0.0;
+  for (std::size_t k = 0; k < loose.trace.size(); ++k)
+    sum += std::pow(loose.trace[k].F_d - tight.trace[k].F_d, 2);
+  const double rms = std::sqrt(sum / static_cast<double>(loose.trace.size()));
+  const double F_ref = 0.231 * SimConfig::seed(model_kind<RateState>, 0.0).drive.normal_load();
+  EXPECT_LT(rms, 1e-4 * F_ref);
+}

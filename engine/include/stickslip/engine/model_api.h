@@ -286,7 +286,9 @@ struct ImplicitLinear {
 ///     ImplicitEval<N> eval(double t, const std::array<double, N>& y, const BaseMotion& b) const;
 ///     ImplicitLinear<N> linearise(double t, const std::array<double, N>& y,
 ///                                 const BaseMotion& b) const;
-///     std::array<double, N> error_weights(int mode) const;  // N per unit of each component
+///     // N per unit of each component, at the step's start (y, b): set once per step
+///     std::array<double, N> error_weights(int mode, const std::array<double, N>& y,
+///                                         const BaseMotion& b) const;
 ///     // Modes (charts): the mode of an engine state, and the event that leaves a mode (>= 0
 ///     // inside, fires when < 0; y0, b0: the step's start), and what happens there: the next
 ///     // mode, y mapped into it and possibly advanced over dt <= dt_max by the system itself.
