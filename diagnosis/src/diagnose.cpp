@@ -130,7 +130,12 @@ Diagnosis diagnose(const measured::MeasuredDataset& data, const DiagnoseOptions&
   if (engine::model_traits(base.cal.model).info->effects && !o.candidates.empty()) {
     cands = fit_candidates(st, base, ev, scan, &d);
     cause = test_and_name(st, &base, &bases[best], &cands, ev, need_adequate, &d);
-    if (need_adequate) d.adequacy.extended_verdict = cause >= 0 ? "adequate" : "inadequate";
+    if (need_adequate) {
+      // The verdict and what is missing are those of the base reported, which test_and_name may
+      // have refitted from a candidate's point (on the Colas records: score 1.62 -> 1.41).
+      d.adequacy = judge_adequacy(Ps, base, compare_stats(Ps, base.stats, nullptr));
+      d.adequacy.extended_verdict = cause >= 0 ? "adequate" : d.adequacy.verdict == "adequate" ? "" : "inadequate";
+    }
   } else {
     for (engine::ExtensionKind k : o.candidates) {
       CandidateResult c;

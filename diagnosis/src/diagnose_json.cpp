@@ -202,6 +202,7 @@ nlohmann::json candidates_json(const Diagnosis& d) {
                      {"dof", c.dof},
                      {"p_value", common::json_number(c.p_value)},
                      {"p_holm", common::json_number(c.p_holm)},
+                     {"size_z", common::json_number(c.size_z)},
                      {"significant", c.significant},
                      {"at_base_point", c.at_base_point},
                      {"adequacy", c.adequacy},

@@ -116,14 +116,14 @@ void summary_candidates(const Diagnosis& d, std::ostringstream& s) {
   char line[256];
   const bool stats = d.scoring == "statistics";
   s << (stats ? "candidates (held-out score, gain, Holm p):\n"
-              : "candidates (held-out RMSE, gain, gain over the noise, Holm p):\n");
+              : "candidates (held-out RMSE, gain, gain over the noise, Holm p, size in standard errors):\n");
   for (const auto& c : d.candidates) {
     if (stats)
       std::snprintf(line, sizeof line, "  %-24s %8.4f %+7.3f  p=%.2g%s", to_string(c.kind), c.score_heldout, c.gain,
                     c.p_holm, c.significant ? "  significant" : "");
     else
-      std::snprintf(line, sizeof line, "  %-24s %8.4f %+7.3f %+7.3f  p=%.2g%s", to_string(c.kind), c.rmse_heldout,
-                    c.gain, c.gain_over_noise, c.p_holm, c.significant ? "  significant" : "");
+      std::snprintf(line, sizeof line, "  %-24s %8.4f %+7.3f %+7.3f  p=%.2g  z=%.3g%s", to_string(c.kind),
+                    c.rmse_heldout, c.gain, c.gain_over_noise, c.p_holm, c.size_z, c.significant ? "  significant" : "");
     s << line;
     if (!c.params.empty()) {
       std::snprintf(line, sizeof line, "  %s = %.4g +- %.2g", c.params[0].name.c_str(), c.params[0].value, c.params[0].stderr_);

@@ -177,7 +177,11 @@ struct CandidateResult {
   double lr = 0;           ///< likelihood-ratio statistic against the refitted base
   int dof = 0;             ///< extra parameters
   double p_value = 1, p_holm = 1;
-  bool significant = false;  ///< p_holm < alpha, gain > 0 and gain_over_noise >= min_gain
+  /// Time domain: |size - neutral| / its standard error (the first extension parameter; for
+  /// normal_load_modulation the larger component); 0 when that error is not finite. NaN in
+  /// statistics scoring (no standard errors).
+  double size_z = 0;
+  bool significant = false;  ///< p_holm < alpha, gain > 0, gain_over_noise >= min_gain, size_z >= 2
   /// The candidate's own optimum scored worse than the base it nests, so it is reported at
   /// the base point (its extension at the neutral size): an extended model is never worse
   /// than its base.
