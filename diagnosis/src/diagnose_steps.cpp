@@ -360,7 +360,14 @@ void require_adequate_extensions(const Steps& st, const BaseFit& base, std::vect
     if ((*cands)[i].res.significant) sig.push_back(i);
   std::vector<Adequacy> a(sig.size());
 #pragma omp parallel for schedule(dynamic, 1) num_threads(st.threads)
-  for (std::size_t j = 0; j < sig.size(); ++j) a[j] = judge_extension(st, base, (*cands)[sig[j]]);
+  for (std::size_t j = 0; j < sig.size(); ++j) {
+    try {  // no exception leaves the parallel region
+      a[j] = judge_extension(st, base, (*cands)[sig[j]]);
+    } catch (const std::exception& e) {
+      a[j].verdict = "inadequate";
+      a[j].missing = {std::string("its adequacy could not be judged: ") + e.what()};
+    }
+  }
   for (std::size_t j = 0; j < sig.size(); ++j) {
     CandidateResult& r = (*cands)[sig[j]].res;
     r.adequacy = a[j].verdict;
