@@ -99,33 +99,18 @@ Diagnosis diagnose(const measured::MeasuredDataset& data, const DiagnoseOptions&
 
   // 1. Calibrate every base model; the best adequate one on held-out data is the base.
   std::vector<BaseFit> bases = calibrate_all(st, &d);
-  int carrier = -1;
-  int best = base_for_causes(st, bases, &d.base_note, &carrier);
+  const int best = base_for_causes(st, bases, &d.base_note);
   BaseFit base = bases[best];
   // 2. Its evidence and uncertainty; 3. the adequacy verdict against trivial predictors.
   SineScan scan;
   Evidence ev = describe_base(st, &base, &bases, best, &scan, &d);
   d.statistics = compare_stats(Ps, base.stats, nullptr);
   d.adequacy = judge_adequacy(Ps, base, d.statistics);
-  // 4. Candidates, tested against the (refitted) base, and the cause. On an adequate base that
-  // takes effects, as they are. Otherwise on the carrier (pick_carrier), and a cause is named
-  // only when its extended model is adequate (the record is then reproduced by a model: the base
-  // with the effect).
+  // 4. Candidates, tested against the (refitted) base, and the cause. On an inadequate base (the
+  // carrier, pick_carrier) a cause is named only when its extended model is adequate (the record
+  // is then reproduced by a model: the base with the effect).
   std::vector<CandFit> cands;
   int cause = -1;
-  const bool extensible = engine::model_traits(base.cal.model).info->effects;
-  const bool on_footing = d.adequacy.verdict == "adequate" && extensible;
-  if (!on_footing && carrier >= 0 && !o.candidates.empty()) {
-    if (carrier != best) {
-      d.base_note += "; the candidates are fitted on " + std::string(engine::to_string(bases[carrier].cal.model)) +
-                     ", the model that takes effects whose held-out statistics are closest to the record's";
-      best = carrier;
-      base = bases[best];
-      ev = describe_base(st, &base, &bases, best, &scan, &d);
-      d.statistics = compare_stats(Ps, base.stats, nullptr);
-      d.adequacy = judge_adequacy(Ps, base, d.statistics);
-    }
-  }
   const bool need_adequate = d.adequacy.verdict != "adequate";
   if (engine::model_traits(base.cal.model).info->effects && !o.candidates.empty()) {
     cands = fit_candidates(st, base, ev, scan, &d);

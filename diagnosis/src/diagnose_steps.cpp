@@ -240,7 +240,7 @@ std::vector<BaseFit> calibrate_all(const Steps& st, Diagnosis* /*d*/) {
   return bases;
 }
 
-int base_for_causes(const Steps& st, const std::vector<BaseFit>& bases, std::string* note, int* carrier) {
+int base_for_causes(const Steps& st, const std::vector<BaseFit>& bases, std::string* note) {
   std::vector<BaseChoice> c(bases.size());
   for (std::size_t i = 0; i < bases.size(); ++i) {
     const BaseFit& b = bases[i];
@@ -253,9 +253,15 @@ int base_for_causes(const Steps& st, const std::vector<BaseFit>& bases, std::str
     c[i].adequate = a.verdict == "adequate";
     if (!a.missing.empty()) c[i].first_miss = a.missing.front();
   }
-  const int best = pick_base(c, !st.o.candidates.empty(), st.P.stats, note);
-  *carrier = pick_carrier(c, best);
-  return best;
+  const bool asked = !st.o.candidates.empty();
+  const int best = pick_base(c, asked, st.P.stats, note);
+  if (best < 0 || !asked || (c[static_cast<std::size_t>(best)].adequate && c[static_cast<std::size_t>(best)].effects))
+    return best;
+  const int carrier = pick_carrier(c, best);
+  if (carrier < 0 || carrier == best) return best;
+  *note += "; the candidates are fitted on " + c[static_cast<std::size_t>(carrier)].model +
+           ", the model that takes effects whose held-out statistics are closest to the record's";
+  return carrier;
 }
 
 Evidence describe_base(const Steps& st, BaseFit* base, std::vector<BaseFit>* bases, int best,

@@ -38,9 +38,10 @@ std::vector<RunReading> run_readings(const Problem& P);
 std::vector<BaseFit> calibrate_all(const Steps& st, Diagnosis* d);
 
 /// The base the diagnosis is built on: pick_base (diagnose_adequacy.h) over the calibrated
-/// bases, each judged by judge_adequacy. *carrier: pick_carrier's model for the candidates when
-/// the base cannot carry them on an adequate footing (-1: none takes effects).
-int base_for_causes(const Steps& st, const std::vector<BaseFit>& bases, std::string* note, int* carrier);
+/// bases, each judged by judge_adequacy; when candidates are asked for and that base cannot carry
+/// them on an adequate footing (inadequate, or it takes no effect), pick_carrier's model instead
+/// (*note says so).
+int base_for_causes(const Steps& st, const std::vector<BaseFit>& bases, std::string* note);
 
 /// Step 2: the base's residual evidence (time domain; empty in statistics) and its parameters
 /// with standard errors, Jacobian rank and condition; the other bases' parameters.
