@@ -7,16 +7,20 @@
 // Noise (estimate_noise). The noise is taken as AR(1): e_k = rho e_{k-1} + ..., sd sigma. Its
 // level and correlation come from robust (median absolute deviation) variances of the centred
 // second differences d_h(k) = y_k - (y_{k-h} + y_{k+h}) / 2, which remove a ramp:
-//   var d_h = sigma^2 (1 - q)(3 - q) / 2,  q = rho^h,
-// at lags h = 1, 2, 3, 4, 6, 8, 12, 16 (those with 8 h <= the sample count), fitted by least
-// squares in log var d_h (rho on a grid of 0.001 in [0, 0.99], sigma from the mean offset). The
-// long lags are needed for strongly correlated noise: at lags 1-3 alone, rho = 0.89 and 0.99
-// differ by 3 % in var d_3 / var d_1, so any excess sent rho to its clamp and sigma several times
-// high. The signal's own curvature (slips, spikes) is left out: centres within H (the longest
-// lag) of one whose |d_H| exceeds 4 robust sd are not used at any lag (twice, the second time
-// with the sd of what the first kept). A stick ramp contributes nothing. A persistent fast
-// oscillation of the signal (the vibrating base's own response, aliased) is not left out: it
-// biases rho, little sigma.
+//   var d_h = sigma^2 (1 - q)(3 - q) / 2,  q = rho^h.
+// Two estimates are made and the smaller level is kept (a signal only ever inflates one):
+//  - lags 1-3: rho from var d_2 / var d_1 and var d_3 / var d_1. Blind to a smooth signal (its
+//    curvature grows as h^4) but, at rho > ~0.85, rho = 0.89 and 0.99 differ by 3 % in
+//    var d_3 / var d_1, so any excess sent rho to its clamp and sigma several times high;
+//  - lags 1, 2, 3, 4, 6, 8, 12, 16, 24, 32 (those with 8 h <= the sample count): var d_h fitted
+//    as sigma^2 (1 - q)(3 - q)/2 + c h^4 (the second term a smooth signal's curvature), sigma^2,
+//    c >= 0 by least squares in relative residuals, rho on a grid of 0.001 in [0, 0.99]. The
+//    samples near a slip or a spike are left out: centres within H (the longest lag) of one
+//    whose |d_H| exceeds 4 robust sd are not used at any lag (twice, the second time with the
+//    sd of what the first kept). A steady oscillation of a few tens of samples (the Colas
+//    records' 30 Hz at 2 kHz) is curvature the h^4 term follows only at short lags: this
+//    estimate reads it as correlated noise, and the lags 1-3 estimate is kept there.
+// A fast oscillation of 30x the noise at 40 samples' period reads ~20 % high (the limit).
 //
 // Spikes (despike). A sample is an impulsive spike when it lies more than kSpikeSigmas sigma
 // from the centre c of the medians L, R of the kSpikeHalf samples on either side, and L and R
