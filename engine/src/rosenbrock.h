@@ -358,14 +358,23 @@ class RosenbrockStepper {
     const Vec k6 = solve(rhs(h, y6) +
                             hi * (c61 * k1 + c62 * k2 + c63 * k3 + c64 * k4 + c65 * k5));
     *y_out = y6 + k6;
-    int skip = -1;  // the component the projection overwrites at the step's end, if it does
-    if constexpr (requires(Arr a) { sys_.projects(mode_, t_, a, b0_, h); })
-      if (sys_.projects(mode_, t_ + h, arr(*y_out), base_at(h), h)) skip = Sys::kProjected;
-    double e = 0.0;
+    // The weighted error norm (max), without the component the projection overwrites at the
+    // step's end where it does; that is asked only when the component would set the norm.
+    double e = 0.0, e_p = 0.0;
     for (int i = 0; i < N; ++i) {
-      if (i == skip) continue;
       const double ei = weight_[i] * std::fabs(k6[i]);
+      if constexpr (requires { Sys::kProjected; })
+        if (i == Sys::kProjected) {
+          e_p = ei;
+          continue;
+        }
       if (!(ei <= e)) e = ei;  // (std::max would drop a NaN)
+    }
+    if (!(e_p <= e) && !std::isnan(e)) {  // the projected component would set it (or is NaN)
+      bool dropped = false;
+      if constexpr (requires(Arr a) { sys_.projects(mode_, t_, a, b0_, h); })
+        dropped = sys_.projects(mode_, t_ + h, arr(*y_out), base_at(h), h);
+      if (!dropped) e = e_p;
     }
     return std::isfinite((*y_out).sum()) ? e : HUGE_VAL;
   }
