@@ -339,21 +339,13 @@ struct RateStateImplicit {
     const Manifold s = manifold(t, y, b);
     if (on_manifold(s, h)) y[1] = s.w;
   }
-  /// Whether project() after a step of length h ending at (t, y) puts w on the manifold: then
-  /// w's own error does not count in that step (the Rosenbrock integrator's header), only that
-  /// of x and psi, of which the projected w is a function.
-  static constexpr int kProjected = 1;
-  bool projects(int mode, double t, const Y& y, const BaseMotion& b, double h) const noexcept {
-    return mode == kNearStick && on_manifold(manifold(t, y, b), h);
-  }
   /// The lowest event value accepted at a located event: a sliding step must not end past
   /// v_r = 0 (there the friction has jumped inside the step), one near stick not far past it.
   double event_floor(int mode) const noexcept { return mode == kSliding ? -v_eps : -v_eps; }
   /// Near stick a step may change w by kTrust = 3 at most (v_r by a factor 20): beyond that the
   /// linearisation of the exponential C(w) is not to be trusted, whatever the error estimate
-  /// says (at rtol 1e-3 a step from w ~ 20 to 120 passed it; with w's error left to the
-  /// projection, steps of 1e-4 s that fell by more than 3 ended in NaN). The ratio of the change
-  /// to that bound (> 1: refused).
+  /// says (at rtol 1e-3 a step from w ~ 20 to 120 passed it). The ratio of the change to that
+  /// bound (> 1: refused).
   static constexpr double kTrust = 3.0;
   double trust_ratio(int mode, const Y& y0, const Y& y1) const noexcept {
     return mode == kSliding ? 0.0 : std::fabs(y1[1] - y0[1]) / kTrust;
@@ -366,8 +358,8 @@ struct RateStateImplicit {
   /// 1e-4: 55k rejections, 10k with this). Where the deceleration weakens (v_r settling to a
   /// balance) the quadratic aim, later, ended steps deeper in the steep law: more rejections.
   /// Near stick: the time in which w changes by 2/3 of the trust bound at its present rate, so
-  /// that a step is seldom refused (each refusal cut h tenfold and regrew it over three steps:
-  /// at 0.2 mm/s, where w follows the base's inertia, 90k of 640k attempts).
+  /// that a step is seldom refused (each refusal cut h tenfold and regrew it over three steps;
+  /// at 0.2 mm/s w follows the base's inertia through +-3.5 at 1500 Hz).
   double time_to_event(int mode, const Y& y, const Y& f, const Y& fd,
                        const BaseMotion& b) const noexcept {
     if (mode != kSliding) return f[1] != 0.0 ? (2.0 / 3.0) * kTrust / std::fabs(f[1]) : HUGE_VAL;
