@@ -1,6 +1,6 @@
 set terminal pngcairo size 920,720 font ',10'
 set output 'colas_regime.png'
-set multiplot layout 2,2 title 'Measured and predicted stick-slip (elasto_plastic; first stage; labels: regime measured/fitted/held out, S stick-slip, I inertial, C creep)' noenhanced
+set multiplot layout 2,2 title 'Measured and predicted stick-slip (karnopp; first stage; labels: regime measured/fitted/held out, S stick-slip, I inertial, C creep)' noenhanced
 set logscale x
 set xlabel 'k_d [N/m]'
 set grid
