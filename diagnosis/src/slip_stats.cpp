@@ -259,9 +259,11 @@ NoiseEstimate long_lag_noise(const std::vector<double>& y) {
     else if (h == 1) return e;
   }
   // var d_h = sigma^2 g(rho, h) + c h^4: the AR(1) noise plus a smooth signal's curvature
-  // (d_h ~ h^2 y''/2, everywhere on a steady oscillation, so the mask above cannot take it: the
-  // 30 Hz inertial oscillation of the Colas records at 4.3 mm/s, 2 kHz, read as noise of rho 0.99
-  // and 3-45 mN without the term, 0.2-2.6 mN white with lags 1-3 alone). For each rho on a grid
+  // (d_h ~ h^2 y''/2, everywhere on a steady oscillation, so the mask above cannot take it). It
+  // helps only in part: the Colas records' 30 Hz oscillation at 4.3 mm/s, 2 kHz, read as noise
+  // of 3-45 mN at rho 0.99 without the term and 7-8 mN with it (lags 1-3: 0.2-2.6 mN, white),
+  // since a period of ~67 samples is not h^4 at the long lags; estimate_noise keeps the smaller
+  // level. For each rho on a grid
   // of 0.001 in [0, 0.99], sigma^2 >= 0 and c >= 0 by least squares in the relative residuals
   // (var d_h / v_h - 1); the rho with the smallest residual wins.
   double best = std::numeric_limits<double>::infinity();
