@@ -45,10 +45,10 @@ double lag_variance(double rho, int h) {
   return 0.5 * (1 - q) * (3 - q);
 }
 
-double ratio_of(double rho, int h) {
-  const double q = std::pow(rho, h);
-  return (1 - q) * (3 - q) / ((1 - rho) * (3 - rho));
-}
+/// var d_h / var d_1 for AR(1) noise of coefficient rho.
+double ratio_of(double rho, int h) { return lag_variance(rho, h) / lag_variance(rho, 1); }
+
+/// rho from R = var d_h / var d_1 (ratio_of increases on [0, 1) from 1 to h): bisection.
 double rho_of_ratio(double R, int h) {
   double lo = 0.0, hi = 0.99;
   if (R <= ratio_of(lo, h)) return lo;
